@@ -1,0 +1,3 @@
+from rths3d.cli import main
+
+main()

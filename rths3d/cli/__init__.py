@@ -1,0 +1,46 @@
+"""Command line interface: ``rths3d COMMAND``. Commands only; the logic lives in the core.
+
+Each command group lives in its own module and registers itself on the shared app. User
+mistakes (:class:`rths3d.errors.RthsError`) print one line and exit with code 2.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from ._app import app
+from . import (  # noqa: F401  (modules register their commands on import)
+    benchmark,
+    diagnose,
+    metrics,
+    platform,
+    run,
+    sweep,
+    train,
+    view,
+)
+
+__all__ = ["app", "main"]
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Entry point of the ``rths3d`` console script."""
+    import click
+
+    from ..errors import RthsError
+
+    try:
+        rv = app(args=argv, prog_name="rths3d", standalone_mode=False)
+    except click.exceptions.Abort:
+        print("aborted", file=sys.stderr)
+        sys.exit(130)
+    except click.exceptions.ClickException as exc:
+        exc.show()
+        sys.exit(exc.exit_code)
+    except RthsError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        sys.exit(2)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        sys.exit(130)
+    sys.exit(rv if isinstance(rv, int) else 0)

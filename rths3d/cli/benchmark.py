@@ -1,0 +1,1 @@
+"""CLI commands: benchmark (registered on the shared app)."""

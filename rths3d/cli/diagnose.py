@@ -1,0 +1,1 @@
+"""CLI commands: diagnose (registered on the shared app)."""

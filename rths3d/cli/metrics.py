@@ -1,0 +1,1 @@
+"""CLI commands: metrics (registered on the shared app)."""

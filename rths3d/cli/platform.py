@@ -1,0 +1,1 @@
+"""CLI commands: platform (registered on the shared app)."""

@@ -1,0 +1,1 @@
+"""CLI commands: sweep (registered on the shared app)."""

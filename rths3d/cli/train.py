@@ -1,0 +1,1 @@
+"""CLI commands: train (registered on the shared app)."""

@@ -1,0 +1,1 @@
+"""CLI commands: view (registered on the shared app)."""
