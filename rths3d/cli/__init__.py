@@ -25,16 +25,19 @@ __all__ = ["app", "main"]
 
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``rths3d`` console script."""
-    import click
+    import typer
+    from typer._click.exceptions import ClickException  # typer vendors click
 
     from ..errors import RthsError
 
     try:
         rv = app(args=argv, prog_name="rths3d", standalone_mode=False)
-    except click.exceptions.Abort:
+    except typer.Abort:
         print("aborted", file=sys.stderr)
         sys.exit(130)
-    except click.exceptions.ClickException as exc:
+    except typer.Exit as exc:
+        sys.exit(exc.exit_code)
+    except ClickException as exc:
         exc.show()
         sys.exit(exc.exit_code)
     except RthsError as exc:
