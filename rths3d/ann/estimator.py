@@ -1,0 +1,301 @@
+"""The fidelity estimator: topology search, an ensemble of LM-trained nets, save/load.
+
+:class:`FidelityANN` follows the paper's procedure: inputs X (features, e.g. a Table-3 set)
+and target y (the relative RMS reference error e_rel,ref, eq. 1 with z^r) are normalised to
+[−1, 1]; the samples are split 70/15/15 once and the indices stored; every candidate topology
+(hidden layers × neurons) is trained ``n_trainings`` times (5 in the paper) from different
+random initialisations with Levenberg–Marquardt and validation early stopping; the topology
+with the smallest mean MSE is kept. Its ``n_trainings`` nets form an ensemble: the prediction
+is their mean and the spread (standard deviation across nets) comes with it.
+
+The topology is picked on the mean *validation* MSE (normalised scale); the paper picks on
+the mean MSE after training. Using validation data keeps the test set untouched and does not
+reward nets that overfit.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from ..errors import ConfigError
+from .network import DTYPE, Topology, forward
+from .normalize import MinMax, split_indices
+from .scores import mse, pearson_rho
+from .training import LMConfig, TrainResult, train_lm
+
+FORMAT = "rths3d-fidelity-ann/1"
+DEFAULT_TOPOLOGIES: tuple[tuple[int, ...], ...] = ((2,), (5,), (10,), (20,), (5, 5), (10, 10))
+
+
+class ExtrapolationWarning(UserWarning):
+    """Inputs lie outside the ranges the network was trained on (it extrapolates)."""
+
+
+@dataclass(frozen=True)
+class TopologyScore:
+    """Result of training one topology ``n`` times: mean and spread of the MSEs.
+
+    MSE on the normalised scale (targets in [−1, 1]).
+    """
+
+    hidden: tuple[int, ...]
+    n_weights: int
+    mean_val_mse: float
+    std_val_mse: float
+    mean_train_mse: float
+    mean_epochs: float
+
+
+class FidelityANN:
+    """Feed-forward net ensemble predicting the test fidelity (scikit-learn style).
+
+    Parameters
+    ----------
+    topologies:
+        Candidate hidden-layer widths, e.g. ``((5,), (10, 10))``. One candidate skips the
+        search. Default: :data:`DEFAULT_TOPOLOGIES`.
+    n_trainings:
+        Trainings per topology from different random initialisations (paper: 5); the chosen
+        topology's trainings are the ensemble.
+    split:
+        Train/validation/test fractions (paper: 0.70/0.15/0.15).
+    seed:
+        Seeds the split and the weight initialisations (deterministic).
+    lm:
+        Levenberg–Marquardt settings (``max_fail=6`` early stopping as MATLAB).
+    """
+
+    def __init__(self, topologies: Sequence[Sequence[int]] | None = None, n_trainings: int = 5,
+                 split: tuple[float, float, float] = (0.70, 0.15, 0.15), seed: int = 0,
+                 lm: LMConfig = LMConfig()):
+        if n_trainings < 1:
+            raise ConfigError("n_trainings", n_trainings, "must be >= 1")
+        self.topologies = tuple(tuple(int(h) for h in t)
+                                for t in (topologies or DEFAULT_TOPOLOGIES))
+        self.n_trainings = int(n_trainings)
+        self.split = tuple(split)
+        self.seed = int(seed)
+        self.lm = lm
+        self.feature_names: list[str] = []
+        self.target_name = "e_rel_ref"
+        self.x_scale: MinMax | None = None
+        self.y_scale: MinMax | None = None
+        self.indices: dict[str, np.ndarray] = {}
+        self.topology: Topology | None = None
+        self.members: list[torch.Tensor] = []
+        self.search: list[TopologyScore] = []
+        self.trainings: list[TrainResult] = []
+        self.info: dict[str, Any] = {}
+
+    # ------------------------------------------------------------------ fit
+    def fit(self, X: Any, y: Any, feature_names: Sequence[str] | None = None,
+            indices: dict[str, np.ndarray] | None = None, progress: bool = False
+            ) -> FidelityANN:
+        """Search the topology and train the ensemble on X (N, d) → y (N,).
+
+        ``X`` may be a pandas DataFrame (its column names become the feature names).
+        ``indices`` (keys ``train``, ``val``, ``test``) fixes the split; otherwise a random
+        70/15/15 split by ``seed`` is drawn and stored.
+        """
+        x, names = _as_matrix(X, feature_names)
+        t = np.asarray(y, dtype=float).ravel()
+        if t.size != x.shape[0]:
+            raise ConfigError("y", t.size, f"must have one target per sample ({x.shape[0]})")
+        if not np.all(np.isfinite(t)):
+            raise ConfigError("y", "NaN/inf", "targets must be finite")
+        self.feature_names = names
+        self.x_scale = MinMax.fit(x, "X")
+        self.y_scale = MinMax.fit(t[:, None], "y")
+        xn = self.x_scale.transform(x)
+        tn = self.y_scale.transform(t[:, None])[:, 0]
+        self.indices = ({k: np.asarray(v, dtype=int) for k, v in indices.items()}
+                        if indices is not None else
+                        split_indices(x.shape[0], self.split, self.seed))
+        tr, va = self.indices["train"], self.indices["val"]
+        results: dict[tuple[int, ...], list[TrainResult]] = {}
+        self.search = []
+        jobs = [(h, k) for h in self.topologies for k in range(self.n_trainings)]
+        bar = None
+        if progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=len(jobs), desc="training", unit="net")
+        for h, k in jobs:
+            topo = Topology(x.shape[1], h)
+            r = train_lm(topo, xn[tr], tn[tr], xn[va], tn[va],
+                         seed=self.seed * 1000 + 17 * k + 1, config=self.lm)
+            results.setdefault(h, []).append(r)
+            if bar is not None:
+                bar.update(1)
+        if bar is not None:
+            bar.close()
+        for h, rs in results.items():
+            v = np.array([r.val_mse for r in rs])
+            self.search.append(TopologyScore(h, rs[0].topology.n_weights, float(v.mean()),
+                                             float(v.std()),
+                                             float(np.mean([r.train_mse for r in rs])),
+                                             float(np.mean([r.epochs for r in rs]))))
+        best = min(self.search, key=lambda s: s.mean_val_mse)
+        self.trainings = results[best.hidden]
+        self.topology = self.trainings[0].topology
+        self.members = [r.weights for r in self.trainings]
+        self.info = {"epochs": [r.epochs for r in self.trainings],
+                     "stop": [r.stop for r in self.trainings],
+                     "seconds": float(sum(r.seconds for rs in results.values() for r in rs))}
+        return self
+
+    # ------------------------------------------------------------------ predict
+    def _check_fitted(self) -> None:
+        if self.topology is None or self.x_scale is None or self.y_scale is None:
+            raise ConfigError("model", "unfitted", "call fit() or load() first")
+
+    def predict_members(self, X: Any, warn: bool = True) -> np.ndarray:
+        """Outputs of every ensemble member in target units, shape (n_members, N)."""
+        self._check_fitted()
+        x, _ = _as_matrix(X, self.feature_names if self.feature_names else None,
+                          expect=self.feature_names)
+        if x.shape[1] != self.topology.n_in:
+            raise ConfigError("X", x.shape, f"needs {self.topology.n_in} feature columns")
+        if warn:
+            out = self.x_scale.outside(x)
+            if out.any():
+                cols = np.flatnonzero(out.any(axis=0))
+                names = [self.feature_names[c] if self.feature_names else str(c) for c in cols]
+                warnings.warn(
+                    f"{int(out.any(axis=1).sum())} of {x.shape[0]} sample(s) lie outside the "
+                    f"training ranges of {', '.join(names)}: the network extrapolates",
+                    ExtrapolationWarning, stacklevel=3)
+        xn = torch.as_tensor(self.x_scale.transform(x), dtype=DTYPE)
+        with torch.no_grad():
+            outs = np.stack([forward(self.topology, w, xn).numpy() for w in self.members])
+        return self.y_scale.inverse(outs[..., None])[..., 0]
+
+    def predict(self, X: Any, return_std: bool = False, warn: bool = True
+                ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+        """Ensemble-mean prediction (target units); with ``return_std`` also the spread.
+
+        The spread is the standard deviation across the ensemble members (same units): how
+        much the trainings disagree, a warning sign where it is large.
+        """
+        outs = self.predict_members(X, warn=warn)
+        mean = outs.mean(axis=0)
+        if return_std:
+            return mean, outs.std(axis=0)
+        return mean
+
+    # ------------------------------------------------------------------ scores
+    def scores(self, X: Any, y: Any) -> dict[str, Any]:
+        """ρ (eq. 15) and MSE on the stored train/val/test sets and on all samples.
+
+        Keys ``r_train``, ``r_val``, ``r_test``, ``r_all`` (ensemble mean), ``mse`` (all
+        samples, target units²), ``mse_<set>``, and per-member ρ lists ``members_r_<set>``
+        (for the median and worst over trainings).
+        """
+        self._check_fitted()
+        t = np.asarray(y, dtype=float).ravel()
+        outs = self.predict_members(X, warn=False)
+        mean = outs.mean(axis=0)
+        res: dict[str, Any] = {}
+        sets = dict(self.indices)
+        sets["all"] = np.arange(t.size)
+        for name, idx in sets.items():
+            res[f"r_{name}"] = pearson_rho(mean[idx], t[idx])
+            res[f"mse_{name}"] = mse(mean[idx], t[idx])
+            res[f"members_r_{name}"] = [pearson_rho(o[idx], t[idx]) for o in outs]
+        res["mse"] = res["mse_all"]
+        res["topology"] = list(self.topology.hidden)
+        return res
+
+    # ------------------------------------------------------------------ persistence
+    def to_dict(self) -> dict[str, Any]:
+        """Everything needed to predict again: weights, normalisation, ranges, names, split."""
+        self._check_fitted()
+        return {
+            "format": FORMAT,
+            "feature_names": self.feature_names,
+            "target_name": self.target_name,
+            "n_in": self.topology.n_in,
+            "hidden": list(self.topology.hidden),
+            "x_range": self.x_scale.to_dict(),
+            "y_range": self.y_scale.to_dict(),
+            "indices": {k: v.tolist() for k, v in self.indices.items()},
+            "members": [w.tolist() for w in self.members],
+            "search": [s.__dict__ | {"hidden": list(s.hidden)} for s in self.search],
+            "settings": {"topologies": [list(t) for t in self.topologies],
+                         "n_trainings": self.n_trainings, "split": list(self.split),
+                         "seed": self.seed},
+            "info": self.info,
+        }
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write the model as JSON (atomic: temp file + rename). Floats round-trip exactly."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+        tmp.write_text(json.dumps(self.to_dict()))
+        os.replace(tmp, path)
+        return path
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> FidelityANN:
+        if d.get("format") != FORMAT:
+            raise ConfigError("model.format", d.get("format"), f"expected {FORMAT!r}")
+        s = d.get("settings", {})
+        m = cls(topologies=s.get("topologies"), n_trainings=s.get("n_trainings", 5),
+                split=tuple(s.get("split", (0.7, 0.15, 0.15))), seed=s.get("seed", 0))
+        m.feature_names = list(d["feature_names"])
+        m.target_name = d.get("target_name", "e_rel_ref")
+        m.topology = Topology(int(d["n_in"]), tuple(d["hidden"]))
+        m.x_scale = MinMax.from_dict(d["x_range"])
+        m.y_scale = MinMax.from_dict(d["y_range"])
+        m.indices = {k: np.asarray(v, dtype=int) for k, v in d["indices"].items()}
+        m.members = [torch.as_tensor(w, dtype=DTYPE) for w in d["members"]]
+        m.search = [TopologyScore(**(e | {"hidden": tuple(e["hidden"])}))
+                    for e in d.get("search", [])]
+        m.info = d.get("info", {})
+        return m
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> FidelityANN:
+        """Read a model written by :meth:`save`; ConfigError if missing or not a model."""
+        path = Path(path)
+        if not path.is_file():
+            raise ConfigError("model", str(path), "file does not exist")
+        try:
+            d = json.loads(path.read_text())
+        except (OSError, ValueError) as exc:
+            raise ConfigError("model", str(path), f"not a readable model file: {exc}") from exc
+        return cls.from_dict(d)
+
+
+def _as_matrix(X: Any, names: Sequence[str] | None,
+               expect: Sequence[str] | None = None) -> tuple[np.ndarray, list[str]]:
+    """X as a float (N, d) matrix and its feature names (DataFrame columns when given)."""
+    if hasattr(X, "columns") and hasattr(X, "to_numpy"):
+        cols = [str(c) for c in X.columns]
+        if expect:
+            missing = [c for c in expect if c not in cols]
+            if missing:
+                raise ConfigError("features", missing[0],
+                                  f"column missing (the model needs {', '.join(expect)})")
+            X = X[list(expect)]
+            cols = list(expect)
+        x = X.to_numpy(dtype=float)
+        return x, cols
+    x = np.asarray(X, dtype=float)
+    if x.ndim == 1:
+        x = x[:, None]
+    if x.ndim != 2:
+        raise ConfigError("X", x.shape, "must be 2-D (samples × features)")
+    if names is not None and len(names) != x.shape[1]:
+        raise ConfigError("feature_names", len(names), f"must name all {x.shape[1]} columns")
+    return x, list(names) if names is not None else [f"x{i}" for i in range(x.shape[1])]

@@ -1,0 +1,79 @@
+"""Regression and prediction plots like the paper's Figs. 6–9 (matplotlib, Agg-safe).
+
+Regression plot: net output against target with the unit-slope line of perfect prediction and
+ρ (eq. 15) in the title. Prediction plot: targets and net outputs per sample (with the ensemble
+spread as error bars when given).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from .scores import pearson_rho
+
+
+def regression_axes(ax, targets: np.ndarray, outputs: np.ndarray, title: str = "") -> None:
+    """Draw one regression plot (targets on x, net outputs on y) into ``ax``."""
+    t = np.asarray(targets, dtype=float)
+    a = np.asarray(outputs, dtype=float)
+    lo = float(min(t.min(), a.min()))
+    hi = float(max(t.max(), a.max()))
+    ax.plot([lo, hi], [lo, hi], "k-", lw=1, label="perfect prediction")
+    ax.plot(t, a, "o", mfc="none", ms=4, label="samples")
+    ax.set_xlabel("target e_rel,ref (-)")
+    ax.set_ylabel("net output (-)")
+    ax.set_title(f"{title}  ρ = {pearson_rho(a, t):.4f}".strip())
+    ax.legend(loc="upper left", fontsize="small")
+    ax.grid(alpha=0.3)
+
+
+def prediction_axes(ax, targets: np.ndarray, outputs: np.ndarray,
+                    spread: np.ndarray | None = None, title: str = "") -> None:
+    """Draw targets and predictions per sample into ``ax`` (paper Fig. 7 style)."""
+    t = np.asarray(targets, dtype=float)
+    a = np.asarray(outputs, dtype=float)
+    k = np.arange(1, t.size + 1)
+    ax.plot(k, t, "ks", mfc="none", ms=5, label="target")
+    if spread is not None:
+        ax.errorbar(k, a, yerr=np.asarray(spread), fmt="o", ms=3, capsize=2,
+                    label="net output ± ensemble spread")
+    else:
+        ax.plot(k, a, "o", ms=3, label="net output")
+    ax.set_xlabel("sample")
+    ax.set_ylabel("e_rel,ref (-)")
+    if title:
+        ax.set_title(title)
+    ax.legend(fontsize="small")
+    ax.grid(alpha=0.3)
+
+
+def save_figures(path: str | os.PathLike, sets: Mapping[str, tuple[np.ndarray, np.ndarray]],
+                 spread: Mapping[str, np.ndarray] | None = None, title: str = "") -> Path:
+    """One figure: a regression plot per set and a prediction plot of the last set.
+
+    ``sets`` maps a set name (e.g. ``"training"``, ``"test"``) to (targets, outputs).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    names = list(sets)
+    fig, axes = plt.subplots(1, len(names) + 1, figsize=(4.2 * (len(names) + 1), 4.0))
+    for ax, name in zip(axes, names, strict=False):
+        regression_axes(ax, *sets[name], title=name)
+    last = names[-1]
+    prediction_axes(axes[-1], *sets[last],
+                    spread=None if spread is None else spread.get(last), title=last)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

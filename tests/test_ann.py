@@ -1,0 +1,240 @@
+"""Tests of the fidelity ANN (rths3d.ann) on synthetic data with known structure."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+import torch
+from torch.func import jacrev
+
+from rths3d.ann import (
+    AdamConfig,
+    ExtrapolationWarning,
+    FidelityANN,
+    MinMax,
+    Topology,
+    mse,
+    pearson_rho,
+    rank,
+    sensitivity_mean,
+    sensitivity_permutation,
+    split_indices,
+    time_to_val_mse,
+    train_adam,
+    train_lm,
+)
+from rths3d.ann.network import forward, init_weights, jacobian
+from rths3d.errors import ConfigError
+
+
+def smooth_data(n: int = 300, d: int = 4, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """y = sin(2 x0) + 0.5 x1² (x2.. pure noise features), x uniform in [-1, 1]."""
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(-1.0, 1.0, (n, d))
+    return x, np.sin(2.0 * x[:, 0]) + 0.5 * x[:, 1] ** 2
+
+
+@pytest.fixture(scope="module")
+def fitted() -> tuple[FidelityANN, np.ndarray, np.ndarray]:
+    x, y = smooth_data(300, 4)
+    model = FidelityANN(topologies=((5,), (8,)), n_trainings=5, seed=0)
+    model.fit(x, y, feature_names=["relevant", "quadratic", "noise1", "noise2"])
+    return model, x, y
+
+
+def test_analytic_jacobian_matches_autograd() -> None:
+    """The analytic LM Jacobian equals torch autograd's for a 2-hidden-layer satlins net."""
+    topo = Topology(3, (4, 3))
+    w = init_weights(topo, np.random.default_rng(0)) * 1.5
+    x = torch.as_tensor(np.random.default_rng(1).uniform(-1, 1, (40, 3)), dtype=torch.float64)
+    a, j = jacobian(topo, w, x)
+    j_ref = jacrev(lambda v: forward(topo, v, x))(w)
+    assert torch.allclose(a, forward(topo, w, x), atol=1e-14)
+    assert torch.allclose(j, j_ref, atol=1e-12)
+    assert j.shape == (40, topo.n_weights)
+
+
+def test_hidden_activation_is_symmetric_saturating_linear() -> None:
+    """Hidden units are satlins: output linear inside [-1, 1] and clipped at ±1 outside."""
+    topo = Topology(1, (1,))
+    # weights: hidden W=1, b=0; output W=1, b=0 → a = clip(x, -1, 1)
+    w = torch.tensor([1.0, 0.0, 1.0, 0.0], dtype=torch.float64)
+    x = torch.tensor([[-3.0], [-0.5], [0.25], [2.0]], dtype=torch.float64)
+    assert forward(topo, w, x).tolist() == [-1.0, -0.5, 0.25, 1.0]
+
+
+def test_minmax_maps_to_unit_box_and_back() -> None:
+    """mapminmax: columns span exactly [-1, 1], inverse restores data, constant column → 0."""
+    x = np.array([[0.0, 5.0, 3.0], [10.0, 7.0, 3.0], [5.0, 6.0, 3.0]])
+    s = MinMax.fit(x)
+    z = s.transform(x)
+    assert np.allclose(z[:, 0], [-1, 1, 0]) and np.allclose(z[:, 1], [-1, 1, 0])
+    assert np.all(z[:, 2] == 0.0)
+    assert np.allclose(s.inverse(z)[:, :2], x[:, :2])
+    assert s.outside(np.array([[11.0, 6.0, 3.0]])).tolist() == [[True, False, False]]
+
+
+def test_split_is_70_15_15_disjoint_and_deterministic() -> None:
+    """The split covers every sample once, has 70/15/15 sizes and repeats for a seed."""
+    s = split_indices(280, seed=3)
+    assert (len(s["train"]), len(s["val"]), len(s["test"])) == (196, 42, 42)
+    allidx = np.concatenate(list(s.values()))
+    assert np.array_equal(np.sort(allidx), np.arange(280))
+    s2 = split_indices(280, seed=3)
+    assert all(np.array_equal(s[k], s2[k]) for k in s)
+    assert not np.array_equal(split_indices(280, seed=4)["test"], s["test"])
+
+
+def test_pearson_rho_known_values() -> None:
+    """ρ (eq. 15) is 1 for an increasing affine map, −1 for a decreasing one, as numpy's."""
+    a = np.random.default_rng(0).normal(size=50)
+    t = a + np.random.default_rng(1).normal(size=50)
+    assert pearson_rho(a, 2 * a + 1) == pytest.approx(1.0)
+    assert pearson_rho(a, -a) == pytest.approx(-1.0)
+    assert pearson_rho(a, t) == pytest.approx(np.corrcoef(a, t)[0, 1], rel=1e-12)
+    assert mse(np.array([1.0, 2.0]), np.array([0.0, 0.0])) == pytest.approx(2.5)
+
+
+def test_lm_fits_smooth_function() -> None:
+    """LM fits y = sin(2x0) + x1²/2 to MSE < 1e-3 (normalised) in under 200 epochs."""
+    x, y = smooth_data(300, 2)
+    xn, tn = MinMax.fit(x).transform(x), MinMax.fit(y[:, None]).transform(y[:, None])[:, 0]
+    s = split_indices(300)
+    r = train_lm(Topology(2, (8,)), xn[s["train"]], tn[s["train"]], xn[s["val"]],
+                 tn[s["val"]], seed=1)
+    assert r.val_mse < 1e-3 and r.train_mse < 1e-3
+    assert r.epochs < 200
+    a = r.predict(xn[s["test"]])
+    assert pearson_rho(a, tn[s["test"]]) > 0.99
+
+
+def test_lm_early_stopping_stops_and_returns_best_validation_weights() -> None:
+    """On pure-noise targets the validation error rises: training stops after 6 fails and
+    returns the weights of the best validation epoch."""
+    rng = np.random.default_rng(5)
+    x = rng.uniform(-1, 1, (120, 3))
+    t = rng.uniform(-1, 1, 120)
+    s = split_indices(120, seed=1)
+    r = train_lm(Topology(3, (20,)), x[s["train"]], t[s["train"]], x[s["val"]],
+                 t[s["val"]], seed=0)
+    assert r.stop == "validation stop"
+    assert r.epochs == r.best_epoch + 6
+    vals = [h[3] for h in r.history]
+    assert r.val_mse == pytest.approx(min(vals), rel=1e-12)
+    assert np.mean((r.predict(x[s["val"]]) - t[s["val"]]) ** 2) == pytest.approx(r.val_mse)
+
+
+def test_adam_baseline_learns_and_stops_at_target() -> None:
+    """The Adam baseline lowers the validation MSE and stops once it reaches the target."""
+    x, y = smooth_data(200, 2, seed=2)
+    xn, tn = MinMax.fit(x).transform(x), MinMax.fit(y[:, None]).transform(y[:, None])[:, 0]
+    s = split_indices(200)
+    r0 = r = train_adam(Topology(2, (8,)), xn[s["train"]], tn[s["train"]], xn[s["val"]],
+                        tn[s["val"]], seed=1, config=AdamConfig(target_val_mse=0.01))
+    assert r.stop == "target reached" and r.val_mse <= 0.01
+    assert r0.history[0][3] > 0.01
+    assert time_to_val_mse(r, 0.01) <= r.seconds
+    assert time_to_val_mse(r, -1.0) == float("inf")
+
+
+def test_estimator_scores_and_topology_search(fitted) -> None:
+    """The ensemble reaches ρ > 0.99 on train/val/test; the chosen topology has the
+    smallest mean validation MSE of the search."""
+    model, x, y = fitted
+    sc = model.scores(x, y)
+    assert sc["r_train"] > 0.99 and sc["r_val"] > 0.99 and sc["r_test"] > 0.99
+    assert len(sc["members_r_test"]) == 5
+    best = min(model.search, key=lambda s: s.mean_val_mse)
+    assert model.topology.hidden == best.hidden
+    assert sc["topology"] == list(best.hidden)
+
+
+def test_topology_search_rejects_too_small_net() -> None:
+    """A one-neuron net cannot fit a sine over two half-periods: the search picks more."""
+    rng = np.random.default_rng(0)
+    x = rng.uniform(-1, 1, (200, 1))
+    y = np.sin(3.0 * x[:, 0])
+    m = FidelityANN(topologies=((1,), (6,)), n_trainings=3, seed=1).fit(x, y)
+    scores = {s.hidden: s.mean_val_mse for s in m.search}
+    assert scores[(6,)] < 0.1 * scores[(1,)]
+    assert m.topology.hidden == (6,)
+
+
+def test_ensemble_gives_spread(fitted) -> None:
+    """predict(return_std=True) returns the member mean and a non-negative spread."""
+    model, x, _ = fitted
+    members = model.predict_members(x[:10])
+    mean, std = model.predict(x[:10], return_std=True)
+    assert members.shape == (5, 10)
+    assert np.allclose(mean, members.mean(axis=0)) and np.allclose(std, members.std(axis=0))
+    assert np.all(std >= 0) and np.any(std > 0)
+
+
+def test_save_load_round_trip_predicts_identically(fitted, tmp_path) -> None:
+    """A saved and reloaded model predicts bit-identically and keeps names, ranges, split."""
+    model, x, _ = fitted
+    path = model.save(tmp_path / "model.json")
+    back = FidelityANN.load(path)
+    assert np.array_equal(back.predict(x), model.predict(x))
+    assert back.feature_names == model.feature_names
+    assert all(np.array_equal(back.indices[k], model.indices[k]) for k in model.indices)
+    assert np.array_equal(back.x_scale.lo, model.x_scale.lo)
+
+
+def test_predicting_outside_training_range_warns(fitted) -> None:
+    """Inputs outside the training ranges raise an ExtrapolationWarning naming the feature;
+    inputs inside do not."""
+    model, x, _ = fitted
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        model.predict(x[:5])
+    bad = x[:3].copy()
+    bad[0, 2] = 5.0
+    with pytest.warns(ExtrapolationWarning, match="noise1"):
+        model.predict(bad)
+
+
+def test_sensitivity_ranks_relevant_above_noise(fitted) -> None:
+    """Both sensitivity methods rank the two relevant features above the pure-noise ones."""
+    model, x, y = fitted
+    for imp in (sensitivity_mean(model, x, y), sensitivity_permutation(model, x, y)):
+        assert set(rank(imp)[:2]) == {"relevant", "quadratic"}
+        assert imp["relevant"] > 10 * max(abs(imp["noise1"]), abs(imp["noise2"]))
+
+
+def test_dataframe_input_uses_column_names(fitted) -> None:
+    """A DataFrame is matched by column name (any order); a missing column is a ConfigError."""
+    import pandas as pd
+
+    model, x, _ = fitted
+    df = pd.DataFrame(x, columns=model.feature_names)[["noise2", "relevant", "noise1",
+                                                       "quadratic"]]
+    assert np.allclose(model.predict(df), model.predict(x), rtol=1e-12, atol=1e-15)
+    with pytest.raises(ConfigError, match="quadratic"):
+        model.predict(df.drop(columns="quadratic"))
+
+
+def test_bad_input_raises_config_error() -> None:
+    """Mismatched targets, NaN targets and empty hidden layers are ConfigErrors naming the field."""
+    x, y = smooth_data(30, 2)
+    with pytest.raises(ConfigError, match="^y"):
+        FidelityANN(n_trainings=1).fit(x, y[:-1])
+    with pytest.raises(ConfigError, match="y"):
+        FidelityANN(n_trainings=1).fit(x, np.where(np.arange(30) == 3, np.nan, y))
+    with pytest.raises(ConfigError, match="topology.hidden"):
+        Topology(2, ())
+    with pytest.raises(ConfigError, match="model"):
+        FidelityANN().predict(x)
+
+
+def test_regression_plots_written(fitted, tmp_path) -> None:
+    """save_figures writes a non-trivial PNG with a regression and a prediction plot."""
+    from rths3d.ann.plots import save_figures
+
+    model, x, y = fitted
+    te = model.indices["test"]
+    mean, std = model.predict(x[te], return_std=True)
+    p = save_figures(tmp_path / "fig.png", {"test": (y[te], mean)}, spread={"test": std})
+    assert p.stat().st_size > 10_000
