@@ -1,0 +1,117 @@
+"""Discrete controllers: difference equations, PI, lead/lag, built from scene data.
+
+A controller is a :class:`DifferenceEquation`
+``y[k] = Σ_{i≥0} b_i u[k−i] − Σ_{i≥1} a_i y[k−i]`` (``a[0] = 1``; powers of z⁻¹), obtained from a
+continuous design by Tustin without prewarping (MATLAB ``c2d(..., 'tustin')``), or given
+directly. For a PI controller ``G_C(s) = K_p + K_i/s`` this gives
+``y[k] = y[k−1] + (K_p + K_i T_s/2) e[k] − (K_p − K_i T_s/2) e[k−1]``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.signal
+
+from ..errors import ConfigError
+from .discretize import DiscreteSS, tustin_tf
+from .stepper import ScalarStepper, StateSpaceStepper
+
+__all__ = ["DifferenceEquation", "controller_from_dict", "lead_lag", "pi_controller"]
+
+
+@dataclass(frozen=True)
+class DifferenceEquation:
+    """Discrete SISO transfer function ``b(z⁻¹)/a(z⁻¹)`` with sample period ``dt`` (s)."""
+
+    b: tuple[float, ...]
+    a: tuple[float, ...]
+    dt: float
+
+    def __post_init__(self) -> None:
+        if len(self.a) == 0 or self.a[0] == 0.0:
+            raise ConfigError("controller.a", list(self.a), "a[0] must be nonzero")
+        if len(self.b) == 0:
+            raise ConfigError("controller.b", list(self.b), "needs at least one coefficient")
+        if not all(np.isfinite(v) for v in (*self.b, *self.a)):
+            raise ConfigError("controller", (self.b, self.a), "coefficients must be finite")
+        if not (self.dt > 0.0):
+            raise ConfigError("controller.dt", self.dt, "must be > 0 s")
+
+    @classmethod
+    def from_arrays(cls, b: Sequence[float], a: Sequence[float], dt: float
+                    ) -> DifferenceEquation:
+        """Normalised so that ``a[0] = 1``."""
+        a0 = float(a[0]) if len(a) else 0.0
+        if a0 == 0.0:
+            raise ConfigError("controller.a", list(a), "a[0] must be nonzero")
+        return cls(tuple(float(v) / a0 for v in b), tuple(float(v) / a0 for v in a), float(dt))
+
+    def to_ss(self) -> DiscreteSS:
+        """A state-space realisation (controllable canonical form)."""
+        n = max(len(self.a), len(self.b))
+        b = np.concatenate([self.b, np.zeros(n - len(self.b))])
+        a = np.concatenate([self.a, np.zeros(n - len(self.a))])
+        A, B, C, D = scipy.signal.tf2ss(b, a)
+        k = n - 1
+        return DiscreteSS(np.reshape(A, (k, k)), np.reshape(B, (k, 1)), np.reshape(C, (1, k)),
+                          np.reshape(D, (1, 1)), self.dt, "difference")
+
+    def scalar(self) -> ScalarStepper:
+        """A plain-float stepper: ``step(u: float) -> float`` (K = 1 hot loop)."""
+        return ScalarStepper((np.asarray(self.b), np.asarray(self.a)))
+
+    def batch(self, K: int) -> StateSpaceStepper:
+        """A stepper for K tests: ``step(u (K, 1)) -> y (K, 1)``."""
+        return StateSpaceStepper(self.to_ss(), K)
+
+    def dcgain(self) -> float:
+        """``Σb / Σa`` (inf for an integrator)."""
+        sa = float(np.sum(self.a))
+        return float(np.sum(self.b)) / sa if sa != 0.0 else float("inf")
+
+    def filter(self, u: np.ndarray) -> np.ndarray:
+        """Response to the whole sequence ``u`` from rest (vectorised)."""
+        return scipy.signal.lfilter(self.b, self.a, np.asarray(u, dtype=float))
+
+
+def pi_controller(kp: float, ki: float, dt: float) -> DifferenceEquation:
+    """Tustin discretisation of ``G_C(s) = K_p + K_i/s`` (K_p dimensionless, K_i in 1/s)."""
+    for name, v in (("controller.kp", kp), ("controller.ki", ki)):
+        if not np.isfinite(v):
+            raise ConfigError(name, v, "must be finite")
+    b, a = tustin_tf([kp, ki], [1.0, 0.0], dt)
+    return DifferenceEquation.from_arrays(b, a, dt)
+
+
+def lead_lag(num: Sequence[float], den: Sequence[float], dt: float) -> DifferenceEquation:
+    """Tustin discretisation of a continuous compensator ``N(s)/D(s)`` (e.g. a phase lead)."""
+    b, a = tustin_tf(num, den, dt)
+    return DifferenceEquation.from_arrays(b, a, dt)
+
+
+def controller_from_dict(spec: Mapping[str, Any], dt: float, field: str = "controller"
+                         ) -> DifferenceEquation:
+    """Build a controller from scene data.
+
+    Accepted forms (``type`` key):
+
+    * ``{"type": "pi", "kp": 2.0, "ki": 95.0}``
+    * ``{"type": "tf", "num": [...], "den": [...]}`` — continuous, discretised by Tustin
+    * ``{"type": "difference", "b": [...], "a": [...]}`` — already discrete at ``dt``
+    """
+    kind = spec.get("type")
+    try:
+        if kind == "pi":
+            return pi_controller(float(spec["kp"]), float(spec["ki"]), dt)
+        if kind == "tf":
+            return lead_lag(list(spec["num"]), list(spec["den"]), dt)
+        if kind == "difference":
+            return DifferenceEquation.from_arrays(list(spec["b"]), list(spec["a"]), dt)
+    except KeyError as exc:
+        raise ConfigError(f"{field}.{exc.args[0]}", None, f"required for type {kind!r}") \
+            from exc
+    raise ConfigError(f"{field}.type", kind, "must be one of 'pi', 'tf', 'difference'")
