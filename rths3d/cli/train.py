@@ -1,1 +1,151 @@
-"""CLI commands: train (registered on the shared app)."""
+"""CLI commands: ``train`` (fit the fidelity ANN on a sweep table) and ``predict``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import typer
+
+from ._app import app
+
+
+def _parse_topologies(text: str | None) -> tuple[tuple[int, ...], ...] | None:
+    from ..errors import ConfigError
+
+    if not text:
+        return None
+    out = []
+    for part in text.split(";"):
+        try:
+            widths = tuple(int(w) for w in part.replace("x", ",").split(",") if w.strip())
+        except ValueError as exc:
+            raise ConfigError("--topologies", text, "write e.g. '5;10;5,5'") from exc
+        if not widths or min(widths) < 1:
+            raise ConfigError("--topologies", text, "every width must be >= 1")
+        out.append(widths)
+    return tuple(out)
+
+
+def _med_worst(values: list[float]) -> dict[str, float]:
+    import numpy as np
+
+    v = np.asarray(values, dtype=float)
+    return {"median": float(np.median(v)), "worst": float(np.min(v))}
+
+
+@app.command()
+def train(
+    table: Path = typer.Argument(..., help="Sweep table (.parquet/.csv) or sweep output folder."),
+    features: int = typer.Option(..., "--features", help="Table-3 feature set: 1, 2 or 3."),
+    out: Path = typer.Option(..., "--out", help="Model file to write (.json)."),
+    as_json: bool = typer.Option(False, "--json", help="Print the scores as one JSON line."),
+    topologies: str = typer.Option(None, "--topologies",
+                                   help="Candidate hidden layers, e.g. '5;10;5,5' "
+                                        "(default: a search over 1–2 layers)."),
+    trainings: int = typer.Option(5, "--trainings", help="Trainings per topology (paper: 5)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the split and initialisations."),
+    family: list[str] = typer.Option(None, "--family", help="Train only on these families."),
+    exclude: list[str] = typer.Option(None, "--exclude", help="Leave these families out."),
+    target: str = typer.Option("e_rel_ref", "--target", help="Target column (target.<name>)."),
+    plot: Path = typer.Option(None, "--plot", help="Write regression/prediction plots (PNG)."),
+) -> None:
+    """Train the fidelity ANN (LM, early stopping, 70/15/15, topology search, 5 trainings).
+
+    Prints ρ (paper eq. 15) on the training, validation and test sets and the MSE.
+    """
+    from ..ann import FidelityANN
+    from ..dataset.store import read_table
+    from ..dataset.table import training_data
+    from ..errors import ConfigError
+
+    frame = read_table(table)
+    X, y, _rows = training_data(frame, features, target, family or None, exclude or None)
+    if len(y) < 10:
+        raise ConfigError("table", f"{len(y)} usable rows", "need at least 10 finished tests")
+    model = FidelityANN(topologies=_parse_topologies(topologies), n_trainings=trainings,
+                        seed=seed)
+    model.target_name = target
+    model.fit(X, y, progress=not as_json)
+    model.save(out)
+    sc = model.scores(X, y)
+    res = {"r_train": sc["r_train"], "r_val": sc["r_val"], "r_test": sc["r_test"],
+           "mse": sc["mse"], "mse_test": sc["mse_test"], "topology": sc["topology"],
+           "n_samples": int(len(y)), "features": features, "model": str(out),
+           "r_test_members": _med_worst(sc["members_r_test"]),
+           "r_train_members": _med_worst(sc["members_r_train"]),
+           "search": [{"hidden": list(s.hidden), "mean_val_mse": s.mean_val_mse}
+                      for s in model.search]}
+    if plot:
+        from ..ann.plots import save_figures
+
+        mean, std = model.predict(X, return_std=True, warn=False)
+        tr, te = model.indices["train"], model.indices["test"]
+        save_figures(plot, {"training": (y[tr], mean[tr]), "test": (y[te], mean[te])},
+                     spread={"test": std[te]}, title=f"feature set {features}")
+    if as_json:
+        typer.echo(json.dumps(res))
+    else:
+        typer.echo(f"topology {'x'.join(map(str, res['topology']))}  "
+                   f"ρ train {res['r_train']:.4f}  val {res['r_val']:.4f}  "
+                   f"test {res['r_test']:.4f}  MSE {res['mse']:.3g}  "
+                   f"({len(y)} tests) → {out}")
+
+
+@app.command()
+def predict(
+    model: Path = typer.Argument(..., help="Model file written by 'rths3d train'."),
+    data: Path = typer.Argument(..., help="Sweep table, or one test record (.parquet/.csv)."),
+    as_json: bool = typer.Option(False, "--json", help="Print the results as one JSON line."),
+) -> None:
+    """Predict the fidelity (e.g. e_rel,ref) with the ensemble mean and its spread."""
+    import warnings
+
+    import numpy as np
+
+    from ..ann import ExtrapolationWarning, FidelityANN, pearson_rho
+    from ..dataset.store import read_table
+    from ..dataset.table import FEATURE, TARGET
+
+    net = FidelityANN.load(model)
+    frame = read_table(data)
+    if "t" in frame.columns and not any(c.startswith(FEATURE) for c in frame.columns):
+        from ..dataset.runner import record_features
+        from ..record import Record
+
+        feats = record_features(Record.load(data))
+        import pandas as pd
+
+        frame = pd.DataFrame([{FEATURE + k: v for k, v in feats.items()}])
+    cols = [FEATURE + n for n in net.feature_names]
+    missing = [c for c in cols if c not in frame.columns]
+    if missing:
+        from ..errors import ConfigError
+
+        raise ConfigError("data", missing[0], "feature column missing for this model")
+    if "status" in frame.columns:
+        frame = frame[frame["status"] == "ok"]
+    X = frame[cols].to_numpy(dtype=float)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ExtrapolationWarning)
+        mean, std = net.predict(X, return_std=True)
+    extrap = [str(w.message) for w in caught if issubclass(w.category, ExtrapolationWarning)]
+    res: dict = {"prediction": mean.tolist(), "spread": std.tolist(),
+                 "target_name": net.target_name, "extrapolation": extrap}
+    if "test_id" in frame.columns:
+        res["test_id"] = frame["test_id"].tolist()
+    tcol = TARGET + net.target_name
+    if tcol in frame.columns and len(mean) > 1:
+        t = frame[tcol].to_numpy(dtype=float)
+        res["r"] = pearson_rho(mean, t)
+        res["mse"] = float(np.mean((mean - t) ** 2))
+    if as_json:
+        typer.echo(json.dumps(res))
+        return
+    for w in extrap:
+        typer.echo(f"warning: {w}", err=True)
+    ids = res.get("test_id", [str(i) for i in range(len(mean))])
+    for i, m, s in zip(ids, mean, std, strict=True):
+        typer.echo(f"{i}\t{net.target_name} = {m:.6g} ± {s:.2g}")
+    if "r" in res:
+        typer.echo(f"ρ = {res['r']:.4f}  MSE = {res['mse']:.3g}")

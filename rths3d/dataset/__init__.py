@@ -1,0 +1,14 @@
+"""Training data at scale: sweep specs → batches on local cores or Dask → one Parquet table.
+
+:func:`load_spec` reads a sweep (TOML), :func:`run_sweep` runs it resumably; see
+:mod:`.table` for the columns and the paper's feature sets.
+"""
+
+from .execute import batches_of, run_sweep
+from .spec import Family, SweepSpec, enumerate_tests, load_spec, parse_spec
+from .store import read_table
+from .table import FEATURE_SETS, feature_names, training_data
+
+__all__ = ["FEATURE_SETS", "Family", "SweepSpec", "batches_of", "enumerate_tests",
+           "feature_names", "load_spec", "parse_spec", "read_table", "run_sweep",
+           "training_data"]

@@ -1,0 +1,154 @@
+"""Running a sweep: batches of tests on local cores (process pool) or a Dask cluster.
+
+The test list of a spec is cut into fixed batches (``batch_size`` consecutive tests, batch id
+``b00000``…); batches are the unit of work, of storage and of resumption. Each batch is run by
+:func:`rths3d.dataset.runner.run_rows` (the loop's K-tests-stepped-together path), wherever it
+executes; the rows come back to this process, which writes the part atomically. Workers never
+write to the table, so a Dask cluster needs no shared file system (except for
+``keep_records``).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from ..errors import ConfigError
+from .spec import SweepSpec
+from .store import SweepStore
+
+RowsFn = Callable[[SweepSpec, list[dict[str, Any]], str | None], list[dict[str, Any]]]
+
+
+def batches_of(spec: SweepSpec) -> list[tuple[str, list[dict[str, Any]]]]:
+    """The sweep's tests cut into its fixed batches: ``[(batch_id, tests), …]``."""
+    tests = spec.tests()
+    b = spec.batch_size
+    return [(f"b{i // b:05d}", tests[i:i + b]) for i in range(0, len(tests), b)]
+
+
+def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = None,
+              scheduler: str | None = None, progress: bool = True,
+              max_batches: int | None = None, rows_fn: RowsFn | None = None):
+    """Run every unfinished batch of ``spec`` and merge the table; returns the DataFrame.
+
+    ``workers``: local processes (default: all cores; 1 runs in this process).
+    ``scheduler``: address of a Dask distributed scheduler (``tcp://host:port``); when given,
+    batches are submitted to that cluster instead. ``max_batches`` stops after that many new
+    batches (for tests and staged runs; the table is then not merged). The merged table is
+    written to ``out/<name>.parquet`` once every batch is done.
+    """
+    from .runner import run_rows
+
+    rows_fn = rows_fn or run_rows
+    all_batches = batches_of(spec)
+    store = SweepStore(out, spec.name, spec.digest(), spec.batch_size,
+                       sum(len(t) for _, t in all_batches)).open()
+    done = store.done()
+    todo = [(bid, tests) for bid, tests in all_batches if bid not in done]
+    if max_batches is not None:
+        todo = todo[:max_batches]
+    rec_dir = str(store.records) if spec.keep_records else None
+    n_total = store.n_tests
+    n_done = sum(len(t) for bid, t in all_batches if bid in done)
+    bar = None
+    fails = 0
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=n_total, initial=n_done, desc=f"sweep {spec.name}", unit="test",
+                   dynamic_ncols=True)
+
+    def finished(bid: str, rows: list[dict[str, Any]]) -> None:
+        nonlocal fails
+        store.write_part(bid, rows)
+        fails += sum(1 for r in rows if r.get("status") != "ok")
+        if bar is not None:
+            bar.update(len(rows))
+            bar.set_postfix(failed=fails)
+
+    try:
+        if not todo:
+            pass
+        elif scheduler:
+            _run_dask(spec, todo, scheduler, rec_dir, rows_fn, finished)
+        else:
+            n = workers if workers is not None else (os.cpu_count() or 1)
+            if n < 1:
+                raise ConfigError("workers", n, "must be >= 1")
+            if n == 1 or len(todo) == 1:
+                for bid, tests in todo:
+                    finished(bid, rows_fn(spec, tests, rec_dir))
+            else:
+                _run_pool(spec, todo, n, rec_dir, rows_fn, finished)
+    finally:
+        if bar is not None:
+            bar.close()
+    if store.done() >= {bid for bid, _ in all_batches}:
+        meta = {"name": spec.name, "digest": spec.digest(), "n_tests": n_total,
+                "written": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+        return store.merge([bid for bid, _ in all_batches], meta)
+    return None
+
+
+def _run_pool(spec, todo, n, rec_dir, rows_fn, finished) -> None:
+    import multiprocessing as mp
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    # forkserver: workers start from a clean process (no inherited threads of MuJoCo/torch)
+    ctx = mp.get_context("forkserver")
+    with ProcessPoolExecutor(max_workers=n, mp_context=ctx,
+                             initializer=_worker_init) as pool:
+        pending = {}
+        it = iter(todo)
+        # keep at most 2 batches per worker in flight so finished ones are written promptly
+        for bid, tests in it:
+            pending[pool.submit(rows_fn, spec, tests, rec_dir)] = bid
+            if len(pending) >= 2 * n:
+                break
+        while pending:
+            ready, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in ready:
+                bid = pending.pop(fut)
+                finished(bid, fut.result())
+                nxt = next(it, None)
+                if nxt is not None:
+                    pending[pool.submit(rows_fn, spec, nxt[1], rec_dir)] = nxt[0]
+
+
+def _worker_init() -> None:
+    # One core per worker process: the parallelism is across processes.
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    try:
+        import torch
+
+        torch.set_num_threads(1)
+    except ImportError:  # pragma: no cover - torch is a dependency
+        pass
+
+
+def _run_dask(spec, todo, scheduler, rec_dir, rows_fn, finished) -> None:
+    try:
+        from distributed import Client, as_completed
+    except ImportError as exc:  # pragma: no cover - dask[distributed] is a dependency
+        raise ConfigError("scheduler", scheduler, "needs dask[distributed] installed") from exc
+    try:
+        client = Client(scheduler, timeout="10s", set_as_default=False)
+    except (OSError, TimeoutError) as exc:
+        raise ConfigError("scheduler", scheduler, f"cannot connect: {exc}") from exc
+    try:
+        futs = {client.submit(rows_fn, spec, tests, rec_dir, key=f"rths3d-{spec.name}-"
+                              f"{spec.digest()}-{bid}", pure=False): bid
+                for bid, tests in todo}
+        for fut in as_completed(list(futs)):
+            finished(futs[fut], fut.result())
+    finally:
+        client.close()
+
+
+def table_path(spec: SweepSpec, out: str | os.PathLike) -> Path:
+    """Where :func:`run_sweep` writes the merged table."""
+    return Path(out) / f"{spec.name}.parquet"

@@ -1,0 +1,244 @@
+"""Sweep specifications: which tests to run, read from TOML.
+
+A sweep is one or more *families*; each family is a base scene plus parameter values. Values
+come from a ``grid`` (Cartesian product of lists, e.g. the paper's Table 1) and/or a random
+``sample`` (ranges drawn with a fixed seed, uniform or log-uniform), optionally reduced to a
+random ``subset`` of fixed size (e.g. the paper's 280 tests). Parameter keys are dotted paths
+into the scene TOML (``"numerical.k"``), so any scene value — including transfer-system
+settings such as controller gains, velocity feed-forward or delays — can be swept.
+
+Example::
+
+    [sweep]
+    name = "paper_contact"
+    duration = 10.0        # s, simulated per test
+    seed = 0
+    batch_size = 16        # tests stepped together and stored as one part
+
+    [[family]]
+    name = "contact"
+    scene = "contact_1d"   # a scene name under scenes/ or a path relative to this file
+    transfer = "lti"
+    subset = 280
+    [family.grid]
+    "numerical.k" = [250.0, 500.0, 1e3]
+    [family.sample]
+    n = 50
+    "transfer.delay" = { loguniform = [1e-3, 2e-2] }
+
+The enumeration is deterministic per ``seed``: each test gets a stable ``test_id`` (family
+name + a hash of its parameters) and an integer ``seed`` for its own randomness.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import math
+import os
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import ConfigError
+
+TRANSFERS = ("ideal", "lti", "stewart")
+
+
+@dataclass(frozen=True)
+class Family:
+    """One system family: a base scene and the parameter values to sweep over it."""
+
+    name: str
+    scene: str
+    transfer: str | None = None
+    grid: Mapping[str, tuple[Any, ...]] = field(default_factory=dict)
+    sample: Mapping[str, tuple[str, float, float]] = field(default_factory=dict)
+    n_sample: int = 0
+    subset: int | None = None
+    fixed: Mapping[str, Any] = field(default_factory=dict)
+    """Parameters set for every test of the family (not swept)."""
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """A whole sweep: families and shared settings (durations in s)."""
+
+    name: str
+    families: tuple[Family, ...]
+    duration: float | None = None
+    seed: int = 0
+    batch_size: int = 16
+    keep_records: bool = False
+    base_dir: str = "."
+    """Folder the scene paths are relative to (the spec file's folder)."""
+
+    def tests(self) -> list[dict[str, Any]]:
+        """All tests of the sweep in a deterministic order (see :func:`enumerate_tests`)."""
+        return enumerate_tests(self)
+
+    def digest(self) -> str:
+        """Hash of everything that determines the results (guards resuming a changed spec)."""
+        d = {"name": self.name, "duration": self.duration, "seed": self.seed,
+             "families": [_family_dict(f) for f in self.families]}
+        return hashlib.sha256(json.dumps(d, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+    def scene_path(self, family: Family) -> Path:
+        """Resolve a family's scene: an existing path (relative to the spec) or a name under
+        the repository's ``scenes/``."""
+        p = Path(family.scene)
+        cands = [p if p.is_absolute() else Path(self.base_dir) / p]
+        if p.suffix != ".toml":
+            cands.append(Path(self.base_dir) / f"{family.scene}.toml")
+        scenes = Path(__file__).resolve().parents[2] / "scenes"
+        cands += [scenes / family.scene, scenes / f"{family.scene}.toml"]
+        for c in cands:
+            if c.is_file():
+                return c
+        raise ConfigError(f"family {family.name!r}.scene", family.scene,
+                          "no such scene file (looked relative to the spec and in scenes/)")
+
+
+def _family_dict(f: Family) -> dict[str, Any]:
+    return {"name": f.name, "scene": f.scene, "transfer": f.transfer,
+            "grid": {k: list(v) for k, v in f.grid.items()},
+            "sample": {k: list(v) for k, v in f.sample.items()}, "n": f.n_sample,
+            "subset": f.subset, "fixed": dict(f.fixed)}
+
+
+def _stable_seed(*parts: Any) -> int:
+    h = hashlib.sha256(json.dumps(parts, sort_keys=True, default=str).encode()).digest()
+    return int.from_bytes(h[:4], "little")
+
+
+def enumerate_tests(spec: SweepSpec) -> list[dict[str, Any]]:
+    """Expand the families into test dicts ``{test_id, family, scene, transfer, seed, params}``.
+
+    Grid values form the Cartesian product (keys in file order, last varying fastest); a
+    ``sample`` block adds ``n`` random draws per grid point; ``subset`` then keeps a random
+    subset of that many tests (seeded). ``params`` maps dotted scene keys to values.
+    """
+    out: list[dict[str, Any]] = []
+    for fi, fam in enumerate(spec.families):
+        keys = list(fam.grid)
+        combos = [dict(zip(keys, vals, strict=True))
+                  for vals in itertools.product(*(fam.grid[k] for k in keys))] or [{}]
+        rng = np.random.default_rng(_stable_seed(spec.seed, fam.name, "sample"))
+        points: list[dict[str, Any]] = []
+        for c in combos:
+            if fam.sample and fam.n_sample > 0:
+                for _ in range(fam.n_sample):
+                    p = dict(c)
+                    for k, (kind, lo, hi) in fam.sample.items():
+                        u = float(rng.uniform())
+                        if kind == "loguniform":
+                            p[k] = float(math.exp(math.log(lo) + u * (math.log(hi) - math.log(lo))))
+                        else:
+                            p[k] = float(lo + u * (hi - lo))
+                    points.append(p)
+            else:
+                points.append(c)
+        if fam.subset is not None and fam.subset < len(points):
+            pick = np.random.default_rng(_stable_seed(spec.seed, fam.name, "subset")).choice(
+                len(points), size=fam.subset, replace=False)
+            points = [points[i] for i in sorted(pick)]
+        seen: set[str] = set()
+        for p in points:
+            params = {**fam.fixed, **p}
+            tid = f"{fam.name}-{_stable_seed(fi, fam.name, params):08x}"
+            while tid in seen:  # identical parameter points (e.g. repeated grid values)
+                tid += "b"
+            seen.add(tid)
+            out.append({"test_id": tid, "family": fam.name, "scene": fam.scene,
+                        "transfer": fam.transfer, "params": params,
+                        "seed": _stable_seed(spec.seed, tid)})
+    return out
+
+
+# ---------------------------------------------------------------------------- parsing
+def _require(d: Mapping[str, Any], key: str, where: str, kind: type | tuple) -> Any:
+    if key not in d:
+        raise ConfigError(f"{where}.{key}", None, "required")
+    v = d[key]
+    if not isinstance(v, kind) or isinstance(v, bool) and kind is not bool:
+        raise ConfigError(f"{where}.{key}", v, f"must be {getattr(kind, '__name__', kind)}")
+    return v
+
+
+def _parse_family(d: Mapping[str, Any], where: str) -> Family:
+    name = _require(d, "name", where, str)
+    scene = _require(d, "scene", where, str)
+    transfer = d.get("transfer")
+    if transfer is not None and transfer not in TRANSFERS:
+        raise ConfigError(f"{where}.transfer", transfer, f"one of {', '.join(TRANSFERS)}")
+    grid: dict[str, tuple[Any, ...]] = {}
+    for k, v in dict(d.get("grid", {})).items():
+        vals = v if isinstance(v, list) else [v]
+        if not vals:
+            raise ConfigError(f"{where}.grid.{k}", v, "needs at least one value")
+        grid[str(k)] = tuple(vals)
+    sample: dict[str, tuple[str, float, float]] = {}
+    sraw = dict(d.get("sample", {}))
+    n_sample = int(sraw.pop("n", 0)) if sraw else 0
+    for k, v in sraw.items():
+        if not isinstance(v, dict) or len(v) != 1:
+            raise ConfigError(f"{where}.sample.{k}", v,
+                              "write {uniform = [lo, hi]} or {loguniform = [lo, hi]}")
+        kind, rng = next(iter(v.items()))
+        if kind not in ("uniform", "loguniform") or not isinstance(rng, list) or len(rng) != 2:
+            raise ConfigError(f"{where}.sample.{k}", v,
+                              "write {uniform = [lo, hi]} or {loguniform = [lo, hi]}")
+        lo, hi = float(rng[0]), float(rng[1])
+        if not hi >= lo or (kind == "loguniform" and lo <= 0):
+            raise ConfigError(f"{where}.sample.{k}", rng,
+                              "need lo <= hi (and lo > 0 for loguniform)")
+        sample[str(k)] = (kind, lo, hi)
+    if sample and n_sample < 1:
+        raise ConfigError(f"{where}.sample.n", n_sample, "must be >= 1 when ranges are given")
+    subset = d.get("subset")
+    if subset is not None and (not isinstance(subset, int) or subset < 1):
+        raise ConfigError(f"{where}.subset", subset, "must be an integer >= 1")
+    fixed = dict(d.get("fixed", {}))
+    return Family(name, scene, transfer, grid, sample, n_sample, subset, fixed)
+
+
+def parse_spec(data: Mapping[str, Any], base_dir: str | os.PathLike = ".") -> SweepSpec:
+    """Build a :class:`SweepSpec` from parsed TOML; ConfigError names any bad field."""
+    sw = dict(data.get("sweep", {}))
+    name = _require(sw, "name", "sweep", str)
+    duration = sw.get("duration")
+    if duration is not None and (not isinstance(duration, int | float) or duration <= 0):
+        raise ConfigError("sweep.duration", duration, "must be > 0 s")
+    batch = sw.get("batch_size", 16)
+    if not isinstance(batch, int) or batch < 1:
+        raise ConfigError("sweep.batch_size", batch, "must be an integer >= 1")
+    seed = sw.get("seed", 0)
+    if not isinstance(seed, int):
+        raise ConfigError("sweep.seed", seed, "must be an integer")
+    fams_raw = data.get("family", [])
+    if not isinstance(fams_raw, list) or not fams_raw:
+        raise ConfigError("family", None, "at least one [[family]] table is required")
+    fams = tuple(_parse_family(f, f"family[{i}]") for i, f in enumerate(fams_raw))
+    names = [f.name for f in fams]
+    dup = {n for n in names if names.count(n) > 1}
+    if dup:
+        raise ConfigError("family.name", sorted(dup)[0], "family names must be unique")
+    return SweepSpec(name, fams, None if duration is None else float(duration), seed, batch,
+                     bool(sw.get("keep_records", False)), str(base_dir))
+
+
+def load_spec(path: str | os.PathLike) -> SweepSpec:
+    """Read a sweep spec TOML file."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError("spec", str(path), "file does not exist")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError("spec", str(path), f"invalid TOML: {exc}") from exc
+    return parse_spec(data, path.parent)

@@ -1,0 +1,119 @@
+"""Resumable sweep storage: one Parquet part per finished batch, merged into one table.
+
+Layout under the output folder ``DIR``::
+
+    DIR/manifest.json          spec name, digest, batch size, number of tests
+    DIR/parts/<batch>.parquet  rows of one finished batch (written atomically)
+    DIR/records/<test>.parquet per-test records (optional, ``keep_records``)
+    DIR/<sweep name>.parquet   the merged table (written atomically when all parts exist)
+
+A part appears only complete (temporary file + ``os.replace``), so a killed sweep leaves
+finished parts intact and no half-written ones; re-running finds the parts and skips those
+batches, so nothing is computed twice or duplicated.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from ..errors import ConfigError
+
+TABLE_META_KEY = b"rths3d_sweep"
+
+
+def _atomic_write_table(frame, path: Path, meta: dict[str, Any] | None = None) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    table = pa.Table.from_pandas(frame, preserve_index=False)
+    if meta is not None:
+        md = dict(table.schema.metadata or {})
+        md[TABLE_META_KEY] = json.dumps(meta, default=str).encode()
+        table = table.replace_schema_metadata(md)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    pq.write_table(table, tmp)
+    os.replace(tmp, path)
+
+
+class SweepStore:
+    """The output folder of one sweep (see module docstring)."""
+
+    def __init__(self, root: str | os.PathLike, name: str, digest: str, batch_size: int,
+                 n_tests: int):
+        self.root = Path(root)
+        self.name = name
+        self.digest = digest
+        self.batch_size = batch_size
+        self.n_tests = n_tests
+        self.parts = self.root / "parts"
+        self.records = self.root / "records"
+        self.table_path = self.root / f"{name}.parquet"
+
+    def open(self) -> SweepStore:
+        """Create the folder or check that an existing one belongs to the same spec."""
+        self.parts.mkdir(parents=True, exist_ok=True)
+        man = self.root / "manifest.json"
+        want = {"name": self.name, "digest": self.digest, "batch_size": self.batch_size,
+                "n_tests": self.n_tests}
+        if man.exists():
+            have = json.loads(man.read_text())
+            for key in ("digest", "batch_size"):
+                if have.get(key) != want[key]:
+                    raise ConfigError(
+                        f"out ({self.root}) {key}", have.get(key),
+                        f"folder holds another sweep (this spec: {want[key]}); "
+                        "use a new --out folder")
+        else:
+            tmp = man.with_name(f".{man.name}.tmp{os.getpid()}")
+            tmp.write_text(json.dumps(want, indent=1))
+            os.replace(tmp, man)
+        return self
+
+    def part_path(self, batch_id: str) -> Path:
+        return self.parts / f"{batch_id}.parquet"
+
+    def done(self) -> set[str]:
+        """Batch ids whose parts are complete on disk."""
+        return {p.stem for p in self.parts.glob("*.parquet")}
+
+    def write_part(self, batch_id: str, rows: Sequence[dict[str, Any]]) -> Path:
+        """Write one batch's rows atomically."""
+        import pandas as pd
+
+        path = self.part_path(batch_id)
+        _atomic_write_table(pd.DataFrame(list(rows)), path)
+        return path
+
+    def merge(self, batch_ids: Sequence[str], meta: dict[str, Any]):
+        """Concatenate the parts in batch order into the sweep table (atomic) and return it."""
+        import pandas as pd
+
+        frames = [pd.read_parquet(self.part_path(b)) for b in batch_ids]
+        frame = pd.concat(frames, ignore_index=True, sort=False) if frames else pd.DataFrame()
+        _atomic_write_table(frame, self.table_path, meta)
+        return frame
+
+
+def read_table(path: str | os.PathLike):
+    """Read a sweep table (Parquet or CSV) as a DataFrame; ConfigError if unreadable."""
+    import pandas as pd
+
+    path = Path(path)
+    if path.is_dir():
+        cands = sorted(p for p in path.glob("*.parquet"))
+        if len(cands) != 1:
+            raise ConfigError("table", str(path), "folder must hold exactly one merged .parquet")
+        path = cands[0]
+    if not path.is_file():
+        raise ConfigError("table", str(path), "file does not exist")
+    try:
+        if path.suffix.lower() == ".csv":
+            return pd.read_csv(path)
+        return pd.read_parquet(path)
+    except Exception as exc:  # unreadable: name the file and the reason
+        raise ConfigError("table", str(path), f"not a readable table: {exc}") from exc

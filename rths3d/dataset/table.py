@@ -1,0 +1,79 @@
+"""The sweep table's columns, and the paper's three feature sets (Table 3).
+
+Column families of a sweep table (one row per test):
+
+``test_id``, ``family``, ``scene``, ``transfer``, ``seed``
+    identity of the test.
+``status``, ``reason``
+    ``ok`` or ``stopped`` (unstable / out of limits, with the reason) or ``error``.
+``param.<dotted key>``
+    the swept scene and transfer-system settings (SI units, as in the scene TOML).
+``feature.<name>``
+    indicators available without a reference solution (Table 3 rows; names from
+    :func:`rths3d.metrics.feature_row`).
+``target.<name>``
+    reference errors (need the reference solution): ``e_rel_ref`` (the ANN target,
+    eq. 1 with z^r), ``e_mre_ref``, ``e_peak_ref``, ``e_rel_ref_f``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..errors import ConfigError
+
+FEATURE = "feature."
+TARGET = "target."
+PARAM = "param."
+DEFAULT_TARGET = "e_rel_ref"
+
+SET_1: tuple[str, ...] = (
+    "e_rel_track", "e_mte_track", "e_peak_track", "e_rel_track_f", "fei_A", "fei_d",
+    "E_error", "E_input", "HSEM_S", "phi", "kappa", "zeta", "tau_ratio_dyn", "tau_ratio_num",
+    "tau_ratio_max",
+)
+"""Set 1 (15 features): all of Table 3."""
+SET_2: tuple[str, ...] = tuple(f for f in SET_1 if f not in ("phi", "kappa", "tau_ratio_dyn"))
+"""Set 2 (12 features): without those needing the experimental part's m_EXP, k_EXP."""
+SET_3: tuple[str, ...] = ("e_rel_track", "e_mte_track", "e_rel_track_f", "fei_d",
+                          "tau_ratio_num", "tau_ratio_dyn", "E_error")
+"""Set 3 (7 features): the ones the paper's sensitivity analysis always ranked important."""
+FEATURE_SETS: dict[int, tuple[str, ...]] = {1: SET_1, 2: SET_2, 3: SET_3}
+
+
+def feature_names(feature_set: int) -> tuple[str, ...]:
+    """Feature names of Table-3 set 1, 2 or 3."""
+    if feature_set not in FEATURE_SETS:
+        raise ConfigError("features", feature_set, "must be 1, 2 or 3 (paper Table 3)")
+    return FEATURE_SETS[feature_set]
+
+
+def training_data(frame: Any, feature_set: int, target: str = DEFAULT_TARGET,
+                  families: list[str] | None = None, exclude: list[str] | None = None
+                  ) -> tuple[Any, np.ndarray, Any]:
+    """Features X (DataFrame, columns = feature names), target y and the kept rows.
+
+    Keeps tests with status ``ok`` and finite features and target; optionally only the
+    given families or all but the excluded ones.
+    """
+    names = feature_names(feature_set)
+    cols = [FEATURE + n for n in names]
+    missing = [c for c in cols + [TARGET + target] if c not in frame.columns]
+    if missing:
+        raise ConfigError("table", missing[0], "column missing (is this a sweep table?)")
+    rows = frame
+    if "status" in rows.columns:
+        rows = rows[rows["status"] == "ok"]
+    if families:
+        rows = rows[rows["family"].isin(families)]
+    if exclude:
+        rows = rows[~rows["family"].isin(exclude)]
+    x = rows[cols].to_numpy(dtype=float)
+    y = rows[TARGET + target].to_numpy(dtype=float)
+    ok = np.isfinite(x).all(axis=1) & np.isfinite(y)
+    rows = rows[ok]
+    X = rows[cols].copy()
+    X.columns = list(names)
+    return X, y[ok], rows
