@@ -1,0 +1,67 @@
+"""Plot data for the live panels: the SSP and the time histories, as plain array functions.
+
+The panels show a sliding window of the stream ending at the current sample. uPlot draws
+series against a sorted x: the time histories use t; the synchronization subspace plot (SSP,
+z' against z) is drawn as a point cloud with its samples sorted by z, so each dot is still one
+(z, z') pair and the loop opens into an ellipse when z' lags z (and collapses onto the unit-
+slope line for perfect tracking).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .stream import Channels
+
+MAX_POINTS = 400
+"""Most points sent per series and update (keeps each update small at 30 per second)."""
+
+
+def window(t: np.ndarray, i_now: int, span: float) -> tuple[int, int]:
+    """Rows ``[i0, i1)`` of the ``span`` seconds of samples ending at row ``i_now``."""
+    i1 = int(i_now) + 1
+    i0 = int(np.searchsorted(t[:i1], t[i_now] - span, side="left"))
+    return i0, i1
+
+
+def stride(i0: int, i1: int, max_points: int = MAX_POINTS) -> slice:
+    """Slice of rows ``[i0, i1)`` decimated to at most ``max_points`` rows, newest kept."""
+    step = max(1, -(-(i1 - i0) // max_points))
+    start = i1 - 1 - ((i1 - 1 - i0) // step) * step
+    return slice(start, i1, step)
+
+
+def _col(data: np.ndarray, rows: slice, col: int) -> np.ndarray:
+    if col < 0:
+        return np.full(len(range(*rows.indices(data.shape[0]))), np.nan)
+    return np.ascontiguousarray(data[rows, col])
+
+
+def history_data(data: np.ndarray, ch: Channels, rows: slice
+                 ) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
+    """Displacement and force histories over ``rows``.
+
+    Returns ``((t, z, z', z^r[, z'_model]), (t, F'_m[, F'_m,model]))`` (s, m or rad, N or N·m);
+    absent signals are NaN (uPlot leaves a gap).
+    """
+    t = _col(data, rows, ch.t)
+    disp = [t, _col(data, rows, ch.z_cmd), _col(data, rows, ch.z_meas), _col(data, rows, ch.z_ref)]
+    force = [t, _col(data, rows, ch.f_meas)]
+    if ch.has_model:
+        disp.append(_col(data, rows, ch.model_z_meas))
+        force.append(_col(data, rows, ch.model_f_meas))
+    return tuple(disp), tuple(force)
+
+
+def ssp_data(data: np.ndarray, ch: Channels, rows: slice) -> tuple[np.ndarray, ...]:
+    """SSP point cloud over ``rows``: ``(z, z', z[, z'_model])`` sorted by z.
+
+    The third series is the unit-slope line z' = z (perfect tracking).
+    """
+    z = _col(data, rows, ch.z_cmd)
+    zm = _col(data, rows, ch.z_meas)
+    order = np.argsort(z, kind="stable")
+    out = [z[order], zm[order], z[order]]
+    if ch.has_model:
+        out.append(_col(data, rows, ch.model_z_meas)[order])
+    return tuple(out)
