@@ -1,0 +1,104 @@
+"""Tests of sweep specs and the resumable part store (rths3d.dataset.spec / .store)."""
+
+from __future__ import annotations
+
+import pandas as pd
+import pytest
+
+from rths3d.dataset import batches_of, load_spec, parse_spec
+from rths3d.dataset.store import SweepStore, read_table
+from rths3d.errors import ConfigError
+
+TABLE1 = {
+    "h0": [0.002, 0.005, 0.01], "fd": [0.25, 0.5, 1.0],
+    "dz": [0.003, 0.005, 0.006, 0.007, 0.009],
+    "d": [50.0, 75.0, 100.0, 150.0, 200.0, 250.0, 500.0],
+    "k": [250.0, 500.0, 1e3, 2.5e3, 5e3, 7.5e3, 1e4, 1.5e4, 2e4, 2.5e4, 5e4, 1e5, 5e5, 2e6],
+    "m": [4.81, 9.62, 19.24],
+}
+
+
+def spec_dict(**family) -> dict:
+    fam = {"name": "contact", "scene": "contact", "grid": TABLE1} | family
+    return {"sweep": {"name": "t", "seed": 3, "batch_size": 7}, "family": [fam]}
+
+
+def test_full_table1_grid_has_13230_tests_and_unique_ids() -> None:
+    """The paper's Table 1 grid expands to 3·3·5·7·14·3 = 13230 tests with unique ids."""
+    tests = parse_spec(spec_dict()).tests()
+    assert len(tests) == 13230
+    assert len({t["test_id"] for t in tests}) == 13230
+    assert {t["params"]["k"] for t in tests} == set(TABLE1["k"])
+
+
+def test_subset_picks_280_deterministically() -> None:
+    """subset = 280 keeps 280 distinct grid points, the same ones for the same seed."""
+    a = parse_spec(spec_dict(subset=280)).tests()
+    b = parse_spec(spec_dict(subset=280)).tests()
+    assert len(a) == 280 and [t["test_id"] for t in a] == [t["test_id"] for t in b]
+    c = parse_spec(spec_dict(subset=280) | {"sweep": {"name": "t", "seed": 4}}).tests()
+    assert [t["test_id"] for t in a] != [t["test_id"] for t in c]
+
+
+def test_random_sample_ranges_and_fixed_values() -> None:
+    """sample draws n values inside [lo, hi] per grid point (log-uniform > 0); fixed is set."""
+    d = spec_dict(grid={"m": [1.0, 2.0]}, sample={"n": 20, "k": {"loguniform": [1e3, 1e5]},
+                                                   "c": {"uniform": [-1.0, 1.0]}},
+                  fixed={"transfer.vff": True})
+    tests = parse_spec(d).tests()
+    assert len(tests) == 40
+    ks = [t["params"]["k"] for t in tests]
+    assert min(ks) >= 1e3 and max(ks) <= 1e5
+    assert all(-1 <= t["params"]["c"] <= 1 for t in tests)
+    assert all(t["params"]["transfer.vff"] is True for t in tests)
+    assert [t["params"] for t in parse_spec(d).tests()] == [t["params"] for t in tests]
+
+
+def test_batches_are_fixed_chunks() -> None:
+    """Batches are consecutive chunks of batch_size tests with stable ids."""
+    spec = parse_spec(spec_dict(subset=20))
+    b = batches_of(spec)
+    assert [len(t) for _, t in b] == [7, 7, 6]
+    assert [bid for bid, _ in b] == ["b00000", "b00001", "b00002"]
+
+
+@pytest.mark.parametrize("patch, field", [
+    ({"subset": 0}, "subset"),
+    ({"transfer": "hydraulic"}, "transfer"),
+    ({"sample": {"n": 3, "k": {"loguniform": [0.0, 1.0]}}}, "sample.k"),
+    ({"sample": {"k": {"uniform": [0.0, 1.0]}}}, "sample.n"),
+    ({"grid": {"k": []}}, "grid.k"),
+])
+def test_bad_spec_values_name_the_field(patch, field) -> None:
+    """Bad family values raise ConfigError naming the field."""
+    with pytest.raises(ConfigError, match=field.replace(".", r"\.")):
+        parse_spec(spec_dict(**patch))
+
+
+def test_spec_file_errors(tmp_path) -> None:
+    """A missing file, invalid TOML and a missing [[family]] are ConfigErrors."""
+    with pytest.raises(ConfigError, match="does not exist"):
+        load_spec(tmp_path / "nope.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[sweep\n")
+    with pytest.raises(ConfigError, match="invalid TOML"):
+        load_spec(bad)
+    nofam = tmp_path / "nofam.toml"
+    nofam.write_text('[sweep]\nname = "x"\n')
+    with pytest.raises(ConfigError, match="family"):
+        load_spec(nofam)
+
+
+def test_store_parts_atomic_and_guarded(tmp_path) -> None:
+    """Parts are listed once written, merge concatenates in batch order, and a folder of
+    another spec is refused."""
+    st = SweepStore(tmp_path, "s", "abc", 2, 4).open()
+    st.write_part("b00001", [{"test_id": "c", "v": 3.0}, {"test_id": "d", "v": 4.0}])
+    st.write_part("b00000", [{"test_id": "a", "v": 1.0}, {"test_id": "b", "v": 2.0}])
+    assert st.done() == {"b00000", "b00001"}
+    assert not list((tmp_path / "parts").glob(".*"))  # no temporary leftovers
+    frame = st.merge(["b00000", "b00001"], {"name": "s"})
+    assert frame["test_id"].tolist() == ["a", "b", "c", "d"]
+    pd.testing.assert_frame_equal(read_table(tmp_path / "s.parquet"), frame)
+    with pytest.raises(ConfigError, match="another sweep"):
+        SweepStore(tmp_path, "s", "zzz", 2, 4).open()
