@@ -1,0 +1,280 @@
+"""The model of a bench for diagnosis: transfer system + force sensor + specimen in MuJoCo.
+
+Heave (z) model of the loop of paper Fig. 4 mirrored onto the platform: a top plate of mass
+``m_plate`` on a slide joint, driven by a position servo (``kp``, ``kv``; MuJoCo ``position``
+actuator) with velocity feed-forward (``kv/kp``·ż) and gravity compensation; above it the
+force-torque sensor (site ``fts`` on the welded body ``ft_body`` of mass ``m_fts``), and the
+experimental part: a mass ``m_exp`` on a spring ``k_exp`` / damper ``c_exp`` with a
+world-fixed contact surface ``h0`` above the mass at equilibrium.
+
+:class:`BenchModel` replays measured commands open-loop (``mujoco.rollout``) with any set of
+effects from :mod:`rths3d.effects` and returns the output channels of
+:data:`rths3d.effects.OUTPUTS` plus ``contact`` (N, contact force on the specimen).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..effects.base import STAGES, get_effect
+from ..effects.library import FX, FZ, LEG, Z
+from ..errors import ConfigError
+
+G = 9.81
+"""Gravitational acceleration (m/s²)."""
+
+
+@dataclass(frozen=True)
+class BenchConfig:
+    """Nominal parameters of the bench model (SI units).
+
+    Attributes: ``m_plate`` (kg) moving mass of plate and legs; ``kp`` (N/m), ``kv`` (N·s/m)
+    servo gains; ``m_fts`` (kg) sensor top and known adapter; ``m_exp`` (kg), ``k_exp`` (N/m),
+    ``c_exp`` (N·s/m) specimen; ``h0`` (m) gap to the contact surface; ``k_contact`` (1/s²)
+    mass-normalised contact stiffness; ``timestep`` (s) physics step; ``substeps`` per sample.
+    """
+
+    m_plate: float = 5.0
+    kp: float = 2.0e6
+    kv: float = 5.0e3
+    m_fts: float = 0.5
+    m_exp: float = 2.0
+    k_exp: float = 1.2e4
+    c_exp: float = 15.0
+    h0: float = 3.0e-3
+    k_contact: float = 1.0e5
+    timestep: float = 5e-4
+    substeps: int = 2
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name == "h0":
+                ok = v >= 0
+            else:
+                ok = v > 0
+            if not (isinstance(v, int | float) and math.isfinite(v) and ok):
+                raise ConfigError(f"bench.{f.name}", v, "must be a finite number > 0"
+                                  if f.name != "h0" else "must be ≥ 0 m")
+
+    @classmethod
+    def from_mapping(cls, data: Mapping[str, Any], source: str = "bench") -> BenchConfig:
+        """Build from a mapping; unknown keys are an error naming the key."""
+        names = {f.name for f in fields(cls)}
+        for k in data:
+            if k not in names:
+                raise ConfigError(f"{source}.{k}", data[k],
+                                  "unknown bench parameter; known: " + ", ".join(sorted(names)))
+        return cls(**{k: (int(v) if k == "substeps" else float(v)) for k, v in data.items()})
+
+
+def load_bench(scene: str | Path | None, meta: Mapping[str, Any] | None = None) -> BenchConfig:
+    """The bench model for ``--scene``: ``"bench"`` (defaults), or a TOML file with a
+    ``[bench]`` table; record metadata ``bench`` (a dict) fills in when the scene is None."""
+    if scene is None or str(scene) in ("", "bench", "default"):
+        if scene is None and meta and isinstance(meta.get("bench"), Mapping):
+            return BenchConfig.from_mapping(meta["bench"], "meta.bench")
+        return BenchConfig()
+    path = Path(scene)
+    if not path.exists():
+        raise ConfigError("scene", str(scene), "use 'bench' or a TOML file with a [bench] table")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError("scene", str(scene), f"not valid TOML: {exc}") from None
+    table = data.get("bench")
+    if not isinstance(table, Mapping):
+        raise ConfigError(f"{path.name}: bench", None, "a [bench] table is required")
+    return BenchConfig.from_mapping(table, f"{path.name}: bench")
+
+
+def bench_mjcf(cfg: BenchConfig) -> str:
+    """MJCF text of the nominal bench (all effects off)."""
+    sag = cfg.m_exp * G / cfg.k_exp
+    wall_z = 0.06 + 0.02 + cfg.h0 + 0.005  # mass centre at rest + sphere radius + gap + half wall
+    return f"""
+<mujoco model="rths3d_bench">
+  <option timestep="{cfg.timestep}" integrator="implicitfast" gravity="0 0 {-G}"/>
+  <worldbody>
+    <body name="plate">
+      <joint name="plate_z" type="slide" axis="0 0 1"/>
+      <geom name="plate_geom" type="box" size="0.1 0.1 0.01" mass="{cfg.m_plate}"
+            contype="0" conaffinity="0"/>
+      <body name="ft_body" pos="0 0 0.02">
+        <geom name="ft_geom" type="cylinder" size="0.03 0.01" mass="{cfg.m_fts}"
+              contype="0" conaffinity="0"/>
+        <site name="fts" size="0.005"/>
+        <body name="mass" pos="0 0 {0.04 + sag}">
+          <joint name="spec_z" type="slide" axis="0 0 1" stiffness="{cfg.k_exp}"
+                 damping="{cfg.c_exp}"/>
+          <geom name="mass_geom" type="sphere" size="0.02" mass="{cfg.m_exp}"
+                contype="1" conaffinity="0"/>
+          <site name="touch" type="sphere" size="0.0205"/>
+        </body>
+      </body>
+    </body>
+    <geom name="wall" type="box" size="0.1 0.1 0.005" pos="0 0 {wall_z}" contype="0"
+          conaffinity="1" solref="{-cfg.k_contact} {-2.0 * math.sqrt(cfg.k_contact)}"
+          solimp="0.99 0.99 0.001"/>
+  </worldbody>
+  <actuator>
+    <position name="leg" joint="plate_z" kp="{cfg.kp}" kv="{cfg.kv}" ctrlrange="-1 1"/>
+  </actuator>
+  <sensor>
+    <jointpos name="z" joint="plate_z"/>
+    <force name="fts_f" site="fts"/>
+    <actuatorfrc name="leg_f" actuator="leg"/>
+    <touch name="contact" site="touch"/>
+  </sensor>
+</mujoco>
+"""
+
+
+EffectValues = Mapping[str, float]
+"""Effect name → parameter value (SI unit of the effect's parameter)."""
+
+
+def split_effects(effects: EffectValues) -> dict[str, list[tuple[Any, float]]]:
+    """Effects that are on, grouped by stage in library order."""
+    by_stage: dict[str, list[tuple[Any, float]]] = {s: [] for s in STAGES}
+    for name, value in effects.items():
+        eff = get_effect(name)
+        if not eff.is_off(value):
+            by_stage[eff.stage].append((eff, float(value)))
+    # command effects act in a fixed physical order: rate limit in the controller, then play
+    by_stage["command"].sort(key=lambda ev: ev[0].name != "velocity_saturation")
+    return by_stage
+
+
+class BenchModel:
+    """Open-loop replay of commands through the bench with effects.
+
+    ``simulate(z_cmd, effects)`` runs the physics (command and spec stages);
+    ``outputs(sim, effects)`` applies the signal stages to a simulation result without
+    re-simulating; ``replay`` does both. Simulations are cached by their physics effects.
+    """
+
+    def __init__(self, cfg: BenchConfig | None = None, dt: float = 1e-3):
+        import mujoco
+
+        self.cfg = cfg or BenchConfig()
+        self.dt = float(dt)
+        n_sub = self.dt / self.cfg.timestep
+        if abs(n_sub - round(n_sub)) > 1e-6 or round(n_sub) < 1:
+            raise ConfigError("record dt", dt, f"must be a multiple of the physics step "
+                              f"{self.cfg.timestep:g} s")
+        self.substeps = int(round(n_sub))
+        self._mujoco = mujoco
+        self._xml = bench_mjcf(self.cfg)
+        self._cache: dict[tuple, dict[str, np.ndarray]] = {}
+        self._data = None
+        self.nsim = 0
+        """Number of physics simulations run (for benchmarks and tests)."""
+
+    # ------------------------------------------------------------------ model building
+    def spec(self, effects: EffectValues | None = None):
+        """The bench ``MjSpec`` with the spec-stage effects applied."""
+        spec = self._mujoco.MjSpec.from_string(self._xml)
+        for eff, value in split_effects(effects or {})["spec"]:
+            eff.apply_spec(spec, value, self.cfg)
+        return spec
+
+    def model(self, effects: EffectValues | None = None):
+        """Compiled ``MjModel`` with the spec-stage effects applied."""
+        return self.spec(effects).compile()
+
+    def command_chain(self, z_cmd: np.ndarray, effects: EffectValues | None = None) -> np.ndarray:
+        """Set-point after the command-stage effects (m)."""
+        z = np.asarray(z_cmd, dtype=float)
+        for eff, value in split_effects(effects or {})["command"]:
+            z = eff.apply_command(z, self.dt, value)
+        return z
+
+    def _initial_state(self, model, u0: float) -> np.ndarray:
+        mj = self._mujoco
+        data = mj.MjData(model)
+        kp = float(model.actuator_gainprm[0, 0])
+        w_total = float(model.body_subtreemass[model.body("plate").id]) * G
+        data.qpos[0] = u0 - w_total / kp
+        k = float(model.jnt_stiffness[1])
+        data.qpos[1] = -self.cfg.m_exp * G / k
+        mj.mj_forward(model, data)
+        state = np.empty(mj.mj_stateSize(model, mj.mjtState.mjSTATE_FULLPHYSICS))
+        mj.mj_getState(model, data, state, mj.mjtState.mjSTATE_FULLPHYSICS)
+        return state
+
+    # ------------------------------------------------------------------ simulation
+    def physics_key(self, effects: EffectValues | None) -> tuple:
+        by = split_effects(effects or {})
+        return tuple((e.name, v) for s in ("command", "spec") for e, v in by[s])
+
+    def simulate(self, z_cmd: np.ndarray, effects: EffectValues | None = None
+                 ) -> dict[str, np.ndarray]:
+        """Replay ``z_cmd`` (m, sampled at ``dt``) through the physics; raw outputs (tared)."""
+        key = self.physics_key(effects) + (id(z_cmd), len(z_cmd))
+        hit = self._cache.get(key)
+        if hit is not None:
+            return hit
+        mj = self._mujoco
+        from mujoco import rollout
+
+        model = self.model(effects)
+        cfg = self.cfg
+        u = self.command_chain(z_cmd, effects)
+        # velocity feed-forward removes the kv/kp lag; gravity compensation the static sag;
+        # both use the nominal model (what the bench controller knows)
+        w_nom = (cfg.m_plate + cfg.m_fts + cfg.m_exp) * G
+        ctrl = u + (cfg.kv / cfg.kp) * np.gradient(u, self.dt) + w_nom / cfg.kp
+        control = np.repeat(ctrl, self.substeps)[None, :, None]
+        state0 = self._initial_state(model, float(u[0]) + w_nom / cfg.kp)
+        if self._data is None or self._data.model.nq != model.nq:
+            self._data = mj.MjData(model)
+        _, sens = rollout.rollout(model, self._data, state0[None, :], control)
+        s = sens[0, :: self.substeps]
+        self.nsim += 1
+        ft_id = model.body("ft_body").id
+        w_fts = float(model.body_subtreemass[ft_id]) * G
+        w_all = float(model.body_subtreemass[model.body("plate").id]) * G
+        out = {
+            Z: s[:, 0].copy(),
+            FX: s[:, 1].copy(),
+            FZ: s[:, 3] - w_fts,
+            LEG: s[:, 4] - w_all,
+            "contact": s[:, 5].copy(),
+        }
+        if np.any(~np.isfinite(s)) or np.max(np.abs(out[Z])) > 1.0:
+            from ..errors import SafetyStop
+
+            bad = int(np.argmax(~np.isfinite(s).all(axis=1) | (np.abs(s[:, 0]) > 1.0)))
+            raise SafetyStop("bench replay divergence", float(np.nanmax(np.abs(s[:, 0]))), 1.0,
+                             bad * self.dt, unit="m")
+        if len(self._cache) > 256:
+            self._cache.clear()
+        self._cache[key] = out
+        return out
+
+    def outputs(self, sim: Mapping[str, np.ndarray], effects: EffectValues | None = None,
+                rng: np.random.Generator | None = None) -> dict[str, np.ndarray]:
+        """Apply the signal-stage effects (no re-simulation) to a simulation result."""
+        out = {k: np.array(v, dtype=float) for k, v in sim.items()}
+        by = split_effects(effects or {})
+        for stage in STAGES[2:]:
+            for eff, value in by[stage]:
+                eff.apply_output(out, self.dt, value, rng)
+        return out
+
+    def replay(self, z_cmd: np.ndarray, effects: EffectValues | None = None,
+               rng: np.random.Generator | None = None) -> dict[str, np.ndarray]:
+        """Simulate and apply all effects: the model's version of every output channel."""
+        return self.outputs(self.simulate(z_cmd, effects), effects, rng)
+
+    def as_meta(self) -> dict[str, Any]:
+        """The nominal parameters, for record metadata (``meta['bench']``)."""
+        return asdict(self.cfg)
