@@ -110,3 +110,55 @@ def rows_to_markdown(rows: Sequence[ProtocolRow]) -> str:
             f"{pct(r.r_eval_median)} / {pct(r.r_eval_worst)} | {pct(r.r_ensemble)} | "
             f"{r.mse:.2g} | {r.topology} | {r.note} |")
     return "\n".join(lines)
+
+
+def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any | None = None,
+              families: Any | None = None, *, left_out: str = "linear",
+              n_trainings: int = 5, seed: int = 0,
+              topologies: Sequence[Sequence[int]] | None = None,
+              feature_sets: Sequence[int] = (1, 2, 3)) -> list[ProtocolRow]:
+    """Run the whole protocol on sweep tables (DataFrames) and return the result rows.
+
+    ``contact_lti``: the paper's contact tests with the 1-D LTI transfer (training data);
+    ``contact_stewart``: the same tests on the MuJoCo Stewart platform; ``linear``: the
+    Table-2 linear system; ``families``: a multi-family table whose family ``left_out`` is
+    held out of training and used for testing (the Table-2 tests are then also tested).
+    """
+    from ..dataset.table import training_data
+
+    rows: list[ProtocolRow] = []
+    models: dict[int, FidelityANN] = {}
+    for fs in feature_sets:
+        X, y, _ = training_data(contact_lti, fs)
+        model, row = fit_and_score(X, y, "contact, 1-D LTI transfer (vRTHS)", fs, seed=seed,
+                                   n_trainings=n_trainings, topologies=topologies,
+                                   note="trained here; ρ eval = test set")
+        models[fs] = model
+        rows.append(row)
+    if contact_stewart is not None:
+        for fs in feature_sets:
+            X, y, _ = training_data(contact_stewart, fs)
+            rows.append(apply_and_score(models[fs], X, y, "contact, MuJoCo Stewart platform",
+                                        fs, note="LTI-trained net applied to all samples"))
+    if linear is not None:
+        for fs in feature_sets:
+            X, y, _ = training_data(linear, fs)
+            keep = in_range(models[fs], X)
+            rows.append(apply_and_score(models[fs], X, y, "linear Table 2 (contact-trained)",
+                                        fs, note=f"all samples ({int(keep.sum())} in range)"))
+    if families is not None:
+        for fs in feature_sets:
+            X, y, _ = training_data(families, fs, exclude=[left_out])
+            model, row = fit_and_score(X, y, f"families without {left_out!r}", fs, seed=seed,
+                                       n_trainings=n_trainings, topologies=topologies,
+                                       note="test set of the training families")
+            rows.append(row)
+            Xo, yo, _ = training_data(families, fs, families=[left_out])
+            if len(yo) > 2:
+                rows.append(apply_and_score(model, Xo, yo, f"family {left_out!r} (left out)",
+                                            fs, note="never seen in training"))
+            if linear is not None:
+                Xl, yl, _ = training_data(linear, fs)
+                rows.append(apply_and_score(model, Xl, yl, "linear Table 2 (families-trained)",
+                                            fs, note=f"{left_out!r} family left out"))
+    return rows

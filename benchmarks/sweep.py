@@ -1,0 +1,147 @@
+"""Benchmark: sweep throughput (1 vs 2 workers), the paper's sweeps, and LM vs Adam.
+
+Run ``python benchmarks/sweep.py [--quick]``; prints ONE JSON line:
+
+``tests_per_s_1worker``, ``tests_per_s_2workers``, ``parallel_efficiency``
+    the same small LTI sweep run with 1 and with 2 local worker processes, side by side
+    (efficiency = rate₂ / (2 rate₁)).
+``paper280_stewart_s``
+    wall time of the paper's 280-test contact sweep on the MuJoCo Stewart platform (2 workers;
+    floor < 120 s). With ``--quick`` a subset is timed and scaled to 280 tests.
+``table1_grid_lti_s``
+    wall time of the full Table-1 grid (13230 tests) with the 1-D LTI transfer (floor < 300 s).
+    With ``--quick`` a subset is timed and scaled.
+``lm_over_adam_time``
+    median over seeds of (LM time to its best validation MSE) / (Adam time to the same MSE),
+    on the 280-test contact data with feature set 2 (< 1: LM is faster). Adam runs that never
+    reach the MSE within the time cap count at the cap (so the ratio is an upper bound).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import shutil
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+SWEEPS = REPO / "scenes" / "sweeps"
+
+
+def _timed_sweep(spec, out: Path, workers: int) -> tuple[float, object]:
+    from rths3d.dataset import run_sweep
+
+    shutil.rmtree(out, ignore_errors=True)
+    t0 = time.perf_counter()
+    frame = run_sweep(spec, out, workers=workers, progress=False)
+    return time.perf_counter() - t0, frame
+
+
+def _subset(spec, n: int):
+    from dataclasses import replace
+
+    fams = tuple(replace(f, subset=n) for f in spec.families)
+    return replace(spec, families=fams, name=f"{spec.name}_sub{n}")
+
+
+def lm_vs_adam(X, y, seeds=(0, 1, 2, 3, 4), hidden=(5,), adam_cap_s: float = 30.0) -> dict:
+    """Time for LM to reach its best validation MSE vs Adam's time to reach the same MSE."""
+    from rths3d.ann import (
+        AdamConfig,
+        MinMax,
+        Topology,
+        split_indices,
+        time_to_val_mse,
+        train_adam,
+        train_lm,
+    )
+
+    x = X.to_numpy(dtype=float) if hasattr(X, "to_numpy") else X
+    xn = MinMax.fit(x).transform(x)
+    tn = MinMax.fit(y[:, None]).transform(y[:, None])[:, 0]
+    s = split_indices(len(y), seed=0)
+    topo = Topology(x.shape[1], tuple(hidden))
+    ratios, reached, lm_t, adam_t = [], 0, [], []
+    for seed in seeds:
+        args = (topo, xn[s["train"]], tn[s["train"]], xn[s["val"]], tn[s["val"]])
+        lm = train_lm(*args, seed=seed)
+        target = lm.val_mse
+        t_lm = time_to_val_mse(lm, target)
+        ad = train_adam(*args, seed=seed, config=AdamConfig(target_val_mse=target,
+                                                            time_limit=adam_cap_s,
+                                                            max_fail=10**9, epochs=10**9))
+        t_ad = time_to_val_mse(ad, target)
+        if math.isfinite(t_ad):
+            reached += 1
+        else:
+            t_ad = ad.seconds
+        lm_t.append(t_lm)
+        adam_t.append(t_ad)
+        ratios.append(t_lm / max(t_ad, 1e-9))
+    return {"lm_over_adam_time": statistics.median(ratios),
+            "lm_time_to_mse_s": statistics.median(lm_t),
+            "adam_time_to_mse_s": statistics.median(adam_t),
+            "adam_reached_fraction": reached / len(seeds)}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="short version (subsets, scaled)")
+    args = ap.parse_args()
+    from rths3d.dataset import load_spec, training_data
+
+    res: dict = {"quick": bool(args.quick), "cpus": os.cpu_count()}
+    tmp = Path(tempfile.mkdtemp(prefix="rths3d_bench_"))
+    try:
+        lti = load_spec(SWEEPS / "table1_lti.toml")
+        stew = load_spec(SWEEPS / "paper280_stewart.toml")
+        # throughput: the same LTI subset with 1 and 2 workers, side by side
+        small = _subset(lti, 64 if args.quick else 256)
+        t1, _ = _timed_sweep(small, tmp / "w1", 1)
+        t2, _ = _timed_sweep(small, tmp / "w2", 2)
+        n_small = len(small.tests())
+        res["tests_per_s_1worker"] = n_small / t1
+        res["tests_per_s_2workers"] = n_small / t2
+        res["parallel_efficiency"] = t1 / (2.0 * t2)
+        # the paper's 280-test sweep on the Stewart platform
+        n280 = len(stew.tests())
+        if args.quick:
+            sub = _subset(stew, 20)
+            ts, _ = _timed_sweep(sub, tmp / "stew", 2)
+            res["paper280_stewart_s"] = ts * n280 / len(sub.tests())
+            res["paper280_stewart_scaled_from"] = len(sub.tests())
+        else:
+            ts, _ = _timed_sweep(stew, tmp / "stew", 2)
+            res["paper280_stewart_s"] = ts
+        # the full Table-1 grid with the LTI transfer
+        n_grid = len(lti.tests())
+        if args.quick:
+            sub = _subset(lti, 500)
+            tg, _ = _timed_sweep(sub, tmp / "grid", 2)
+            res["table1_grid_lti_s"] = tg * n_grid / len(sub.tests())
+            res["table1_grid_lti_scaled_from"] = len(sub.tests())
+        else:
+            tg, _ = _timed_sweep(lti, tmp / "grid", 2)
+            res["table1_grid_lti_s"] = tg
+        res["table1_grid_tests"] = n_grid
+        # LM vs Adam on contact data (the 280-test LTI subset of the paper)
+        paper = load_spec(SWEEPS / "paper280_lti.toml")
+        _, frame = _timed_sweep(paper, tmp / "paper", 2)
+        X, y, _ = training_data(frame, 2)
+        res.update(lm_vs_adam(X, y, seeds=(0, 1, 2) if args.quick else (0, 1, 2, 3, 4),
+                              adam_cap_s=10.0 if args.quick else 30.0))
+        res["lm_vs_adam_samples"] = int(len(y))
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    print(json.dumps(res))
+    sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()
