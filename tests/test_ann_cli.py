@@ -1,0 +1,62 @@
+"""Tests of `rths3d train` and `rths3d predict` on a sweep-shaped table with known structure."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rths3d.dataset.table import FEATURE_SETS
+
+
+@pytest.fixture(scope="module")
+def table(tmp_path_factory):
+    """A table whose target is a smooth function of two set-3 features (others noise)."""
+    rng = np.random.default_rng(0)
+    n = 160
+    names = FEATURE_SETS[1]
+    data = {f"feature.{k}": rng.uniform(0.0, 1.0, n) for k in names}
+    y = 0.05 + 0.1 * data["feature.e_rel_track"] ** 2 + 0.05 * data["feature.fei_d"]
+    data["target.e_rel_ref"] = y
+    data["test_id"] = [f"t{i:03d}" for i in range(n)]
+    data["family"] = ["synthetic"] * n
+    data["status"] = ["ok"] * (n - 2) + ["stopped"] * 2
+    path = tmp_path_factory.mktemp("tbl") / "sweep.parquet"
+    pd.DataFrame(data).to_parquet(path)
+    return path
+
+
+def run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "rths3d", *args], capture_output=True,
+                          text=True, timeout=300)
+
+
+def test_train_json_keys_and_scores(table, tmp_path) -> None:
+    """train --json prints r_train, r_val, r_test, mse, topology with ρ > 0.99 on a smooth
+    target, and predict reproduces the targets of the same table."""
+    model = tmp_path / "m.json"
+    p = run("train", str(table), "--features", "3", "--out", str(model), "--json",
+            "--topologies", "5;3,3", "--trainings", "3")
+    assert p.returncode == 0, p.stderr
+    res = json.loads(p.stdout.strip().splitlines()[-1])
+    for key in ("r_train", "r_val", "r_test", "mse", "topology"):
+        assert key in res
+    assert res["r_train"] > 0.99 and res["r_test"] > 0.99
+    assert res["n_samples"] == 158  # the two stopped tests are not trained on
+    q = run("predict", str(model), str(table), "--json")
+    assert q.returncode == 0, q.stderr
+    pr = json.loads(q.stdout)
+    assert len(pr["prediction"]) == 158 and len(pr["spread"]) == 158
+    assert pr["r"] > 0.99 and pr["extrapolation"] == []
+
+
+def test_cli_bad_input_one_line_exit_2(table, tmp_path) -> None:
+    """Bad feature set or a missing table: one error line, exit code 2, no traceback."""
+    p = run("train", str(table), "--features", "4", "--out", str(tmp_path / "m.json"))
+    assert p.returncode == 2 and "features" in p.stderr and "Traceback" not in p.stderr
+    q = run("predict", str(tmp_path / "none.json"), str(table))
+    assert q.returncode == 2 and "model" in q.stderr and "Traceback" not in q.stderr
