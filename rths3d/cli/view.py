@@ -1,1 +1,71 @@
 """CLI commands: view (registered on the shared app)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from ._app import app
+
+RECORD_SUFFIXES = (".parquet", ".csv")
+
+
+@app.command()
+def view(
+    target: str = typer.Argument(..., help="A saved record (.parquet/.csv) to replay, or a "
+                                 "scene (TOML file or scene name) to run live."),
+    host: str = typer.Option("127.0.0.1", help="Address to listen on (127.0.0.1: this "
+                             "machine only)."),
+    port: int = typer.Option(8080, help="Port to listen on (0: any free port)."),
+    speed: float = typer.Option(1.0, help="Replay / run speed, × real time."),
+    exaggeration: float = typer.Option(1.0, help="Display factor k on platform motions "
+                                       "(1 = true scale)."),
+    span: float = typer.Option(2.0, help="Length of the panels' time window (s)."),
+    rate: float = typer.Option(30.0, help="View updates per second (at most 30)."),
+    transfer: str = typer.Option("", help="Live run: transfer system (default: the scene's)."),
+    seconds: float = typer.Option(0.0, help="Serve this long (s) and exit; 0 = until Ctrl-C."),
+) -> None:
+    """Watch a hybrid test in the browser: run SCENE live, or replay a saved RECORD.
+
+    Prints the address of the page. The view shows the platform, the sensor, the experimental
+    part, a ghost of the numerical substructure and the interface force, the SSP (z' against
+    z), time histories of z, z', z^r and F'_m, and running measures.
+    """
+    import time
+
+    from ..errors import ConfigError
+
+    if not 0 < rate <= 30:
+        raise ConfigError("--rate", rate, "updates per second must be in (0, 30]")
+    if seconds < 0:
+        raise ConfigError("--seconds", seconds, "must be >= 0")
+    common = dict(host=host, port=port, exaggeration=exaggeration, span=span, rate=rate)
+    if Path(target).suffix.lower() in RECORD_SUFFIXES:
+        from ..record import Record
+        from ..viz import Viewer, buffer_from_record
+
+        record = Record.load(target)
+        viewer = Viewer(buffer_from_record(record), speed=speed,
+                        title=f"rths3d · {Path(target).name}", **common)
+        run = None
+    else:
+        from ..viz.live import LiveRun
+
+        run = LiveRun.from_scene(target, transfer=transfer or None, speed=speed)
+        viewer = run.viewer(**common)
+    viewer.start()
+    typer.echo(f"rths3d view: {viewer.url}  (Ctrl-C to stop)", err=False)
+    try:
+        if seconds > 0:
+            time.sleep(seconds)
+        else:
+            viewer.wait()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        viewer.stop()
+        if run is not None:
+            saved = run.close()
+            if saved:
+                typer.echo(f"record saved: {saved}")

@@ -222,7 +222,8 @@ class PlatformScene:
         self._ghost_lines = np.zeros((ndof, 2, 3), dtype=np.float32)
         self._update_ghost_lines([0.0] * ndof)
         self.ghost_springs = scene.add_line_segments(
-            "/numerical/springs", self._ghost_lines.copy(), colors=GHOST_COLOR, line_width=3.0)
+            "/numerical/springs", self._ghost_lines.copy(), colors=GHOST_COLOR, thickness=3.0,
+            thickness_units="screen")
         scene.add_label("/numerical/label", "numerical substructure (ghost)",
                         position=(x0, 0.0, self._ghost_z(ndof - 1, 0.0) + 0.08))
 

@@ -1,0 +1,338 @@
+"""Tests of the live view and replay (rths3d.viz): drawing kinematics, playback clock, panel
+data, the 3-D scene on a real viser server, the headless websocket stream and the CLI."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from rths3d.errors import ConfigError
+from rths3d.platform import DEFAULT_GEOMETRY, inverse_kinematics
+from rths3d.platform import rotation_matrix as platform_rotation
+from rths3d.record import DOFS, Record, RecordBuffer
+from rths3d.viz import Playback, Viewer, buffer_from_record
+from rths3d.viz.kinematics import (
+    leg_segments,
+    quat_from_matrix,
+    quat_rotate,
+    quat_z_to,
+    rotation_matrix,
+    transform_points,
+)
+from rths3d.viz.panels import history_data, ssp_data, stride, window
+from rths3d.viz.stream import channels, stream_dofs
+from rths3d.viz.wire import HeadlessClient
+
+DT = 1e-3
+AMP = 0.005  # m
+FREQ = 1.0  # Hz
+TAU = 0.02  # s, delay of z' behind z
+K_EXP = 2.0e4  # N/m
+
+
+def delayed_sine_record(duration: float = 3.0, model: bool = False) -> Record:
+    """A 1 kHz record: z = A sin ωt, z' = z delayed by TAU, F'_m = k z', a roll of the plate,
+    the leg lengths of that pose from inverse kinematics and two numerical DOFs."""
+    t = np.arange(0.0, duration, DT)
+    w = 2 * math.pi * FREQ
+    z = AMP * np.sin(w * t)
+    zm = AMP * np.sin(w * (t - TAU))
+    pose = np.zeros((t.size, 6))
+    pose[:, 2] = zm
+    pose[:, 3] = 0.01 * np.sin(0.5 * w * t)
+    legs = inverse_kinematics(DEFAULT_GEOMETRY, pose)
+    cols = {"z_cmd.z": z, "z_meas.z": zm, "z_ref.z": AMP * np.sin(w * (t - 0.005)),
+            "f_meas.z": K_EXP * zm, "f_ext.z": np.zeros_like(t),
+            "x_num.0": z, "x_num.1": 1.6 * z}
+    cols.update({f"pose_meas.{d}": pose[:, i] for i, d in enumerate(DOFS)})
+    cols.update({f"leg_len.{i}": legs[:, i] for i in range(6)})
+    if model:
+        cols["model.z_meas.z"] = AMP * np.sin(w * (t - 0.015))
+        cols["model.f_meas.z"] = K_EXP * cols["model.z_meas.z"]
+    meta = {"scene": "delayed-sine", "transfer": "stewart", "dt": DT,
+            "experiment": {"k_exp": [[K_EXP]], "m_exp": 1.0}, "params": {"h0": 0.01}}
+    return Record(t, cols, meta)
+
+
+@pytest.fixture(scope="module")
+def record() -> Record:
+    return delayed_sine_record()
+
+
+# ---------------------------------------------------------------------- kinematics
+def test_rotation_matches_platform_convention():
+    """The view's R = Rz Ry Rx equals the platform module's rotation for random angles."""
+    rng = np.random.default_rng(0)
+    for rx, ry, rz in rng.uniform(-1.0, 1.0, (20, 3)):
+        np.testing.assert_allclose(rotation_matrix(rx, ry, rz),
+                                   platform_rotation(rx, ry, rz), atol=1e-14)
+
+
+def test_quaternion_of_matrix_rotates_like_the_matrix():
+    """quat_from_matrix(R) rotates vectors exactly as R does, and has unit norm, w >= 0."""
+    rng = np.random.default_rng(1)
+    for rx, ry, rz in rng.uniform(-3.0, 3.0, (50, 3)):
+        R = rotation_matrix(rx, ry, rz)
+        q = quat_from_matrix(R)
+        assert abs(np.linalg.norm(q) - 1) < 1e-12 and q[0] >= 0
+        v = rng.normal(size=3)
+        np.testing.assert_allclose(quat_rotate(q, v), R @ v, atol=1e-12)
+
+
+def test_quat_z_to_turns_z_axis_onto_direction():
+    """quat_z_to(d) maps +z onto d/|d|, including the anti-parallel limit."""
+    for d in ([1.0, 2.0, 3.0], [0.0, 0.0, -2.0], [0.3, -0.1, 0.0], [0.0, 0.0, 1.0]):
+        d = np.array(d)
+        np.testing.assert_allclose(quat_rotate(quat_z_to(d), [0, 0, 1.0]),
+                                   d / np.linalg.norm(d), atol=1e-12)
+
+
+def test_leg_segments_span_base_to_tip_with_ik_lengths():
+    """Cylinder starts at the base anchor, piston ends at the plate anchor, and the drawn leg
+    lengths equal the platform's inverse kinematics for the same pose."""
+    g = DEFAULT_GEOMETRY
+    pose = np.array([0.01, -0.02, 0.015, 0.03, -0.02, 0.05])
+    tips = transform_points(g.top_anchors(), pose, g.home_position())
+    c = 0.25
+    cyl, piston, quats, lengths = leg_segments(g.base_anchors(), tips, c)
+    np.testing.assert_allclose(lengths, inverse_kinematics(g, pose), atol=1e-12)
+    for i in range(6):
+        axis = quat_rotate(quats[i], [0, 0, 1.0])
+        np.testing.assert_allclose(cyl[i] - 0.5 * c * axis, g.base_anchors()[i], atol=1e-12)
+        np.testing.assert_allclose(piston[i] + 0.5 * c * axis, tips[i], atol=1e-12)
+
+
+# ---------------------------------------------------------------------- playback
+class FakeClock:
+    """A settable wall clock (s) so the playback needs no sleeping."""
+
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def test_playback_speed_pause_seek_and_loop():
+    """Record time advances at speed × wall time, holds when paused, jumps on seek, and wraps
+    at the end when looping."""
+    clk = FakeClock()
+    pb = Playback(0.0, 4.0, speed=2.0, clock=clk)
+    clk.now += 0.5
+    assert pb.time() == pytest.approx(1.0)
+    pb.pause()
+    clk.now += 10.0
+    assert pb.time() == pytest.approx(1.0) and not pb.playing
+    pb.seek(3.5)
+    pb.play()
+    clk.now += 0.5  # 3.5 + 1.0 → wraps to 0.5
+    assert pb.time() == pytest.approx(0.5)
+    pb.set_speed(0.5)  # no jump when the speed changes
+    assert pb.time() == pytest.approx(0.5)
+    clk.now += 1.0
+    assert pb.time() == pytest.approx(1.0)
+    pb.seek(-5.0)
+    assert pb.time() == pytest.approx(0.0)
+    pb.restart()
+    assert pb.time() == 0.0 and pb.playing
+
+
+def test_playback_stops_at_end_without_loop():
+    """Without looping the clock holds at the last sample and pauses itself."""
+    clk = FakeClock()
+    pb = Playback(1.0, 2.0, loop=False, clock=clk)
+    clk.now += 5.0
+    assert pb.time() == pytest.approx(2.0) and not pb.playing
+    pb.play()  # from the end: starts over
+    assert pb.time() == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("speed", [0.0, -1.0, 1e6])
+def test_playback_rejects_bad_speed(speed):
+    """A speed outside its limits is a ConfigError naming 'speed'."""
+    with pytest.raises(ConfigError, match="speed"):
+        Playback(0.0, 1.0, speed=speed)
+
+
+# ---------------------------------------------------------------------- panels
+def test_window_and_stride(record):
+    """The window spans `span` seconds ending at the current sample; decimation keeps at most
+    MAX points, evenly spaced, and always the newest sample."""
+    t = record.t
+    i0, i1 = window(t, 2500, 1.0)
+    assert i1 == 2501 and t[i0] >= t[2500] - 1.0 - 1e-12 and t[i0 - 1] < t[2500] - 1.0
+    s = stride(i0, i1, 400)
+    rows = np.arange(i1)[s]
+    assert len(rows) <= 400 and rows[-1] == 2500 and rows[0] >= i0
+    assert len(set(np.diff(rows))) == 1
+    assert stride(5, 9, 400) == slice(5, 9, 1)
+
+
+def test_ssp_data_keeps_pairs_and_sorts_by_z(record):
+    """The SSP series are (z, z') pairs of the same samples, sorted by z, plus the unit-slope
+    line; a model column adds a fourth series."""
+    buf = buffer_from_record(delayed_sine_record(model=True))
+    ch = channels(buf.index, "z")
+    rows = stride(1000, 2000, 400)
+    z, zm, line, zmod = ssp_data(buf.data, ch, rows)
+    assert np.all(np.diff(z) >= 0)
+    np.testing.assert_array_equal(line, z)
+    pairs = set(zip(buf.data[rows, ch.z_cmd], buf.data[rows, ch.z_meas], strict=True))
+    assert set(zip(z, zm, strict=True)) == pairs
+    assert zmod.shape == z.shape
+
+
+def test_history_data_has_model_beside_measurement():
+    """Time histories carry t, z, z', z^r (and the model z' / F'_m when recorded)."""
+    buf = buffer_from_record(delayed_sine_record(model=True))
+    ch = channels(buf.index, "z")
+    assert ch.has_model
+    disp, force = history_data(buf.data, ch, slice(0, 100, 1))
+    assert len(disp) == 5 and len(force) == 3
+    np.testing.assert_array_equal(disp[0], buf.data[:100, 0])
+    np.testing.assert_allclose(force[2], K_EXP * disp[4])
+
+
+def test_buffer_from_record_round_trips(record):
+    """A replay buffer holds exactly the record's samples and DOFs."""
+    buf = buffer_from_record(record)
+    assert buf.n == record.n and stream_dofs(buf.columns) == ("z",)
+    back = buf.to_record()
+    np.testing.assert_array_equal(back.t, record.t)
+    for k, v in record.columns.items():
+        np.testing.assert_array_equal(back.columns[k], v)
+
+
+# ---------------------------------------------------------------------- server
+@pytest.fixture(scope="module")
+def viewer(record):
+    v = Viewer(buffer_from_record(record), port=0, rate=30).start()
+    yield v
+    v.stop()
+
+
+def test_scene_follows_pose_legs_and_spring(viewer, record):
+    """Moving the scene to a sample puts the plate at home + pose, the piston ends at the
+    recorded leg length from the base, and stretches the spring by −F'_m,z / k_exp."""
+    sc = viewer.scene
+    i = 1234
+    row = viewer.buffer.data[i].copy()
+    with viewer._lock:
+        sc.exaggeration = 1.0
+        sc.update(row)
+        pose = np.array([record.columns[f"pose_meas.{d}"][i] for d in DOFS])
+        np.testing.assert_allclose(sc.plate_frame.position,
+                                   DEFAULT_GEOMETRY.home_position() + pose[:3], atol=1e-6)
+        q = np.asarray(sc.plate_frame.wxyz)
+        R = rotation_matrix(*pose[3:])
+        np.testing.assert_allclose(quat_rotate(q, [1.0, 0, 0]), R[:, 0], atol=1e-6)
+        for k in range(6):
+            axis = quat_rotate(np.asarray(sc.pistons[k].wxyz), [0, 0, 1.0])
+            end = np.asarray(sc.pistons[k].position) + 0.5 * sc.cylinder_length * axis
+            length = np.linalg.norm(end - DEFAULT_GEOMETRY.base_anchors()[k])
+            assert length == pytest.approx(record.columns[f"leg_len.{k}"][i], abs=1e-6)
+        spring = sc.spring.scale[2]
+        expected = sc.specimen.spring_length - record.columns["f_meas.z"][i] / K_EXP
+        assert spring == pytest.approx(expected, abs=1e-9)
+        viewer._dirty = True
+
+
+def test_replay_viewer_updates_at_most_30_per_second(viewer):
+    """The view's own thread updates at ≤ 30 Hz and the shown time advances in replay."""
+    u0, t0 = viewer.updates, time.monotonic()
+    i0 = viewer.current_index()
+    time.sleep(1.0)
+    rate = (viewer.updates - u0) / (time.monotonic() - t0)
+    assert 5 < rate <= 31
+    assert viewer.current_index() != i0
+
+
+def test_viewer_rejects_bad_options(record):
+    """Bad view options raise ConfigError naming the option."""
+    buf = buffer_from_record(record)
+    with pytest.raises(ConfigError, match="rate"):
+        Viewer(buf, rate=60)
+    with pytest.raises(ConfigError, match="span"):
+        Viewer(buf, span=0)
+    with pytest.raises(ConfigError, match="exaggeration"):
+        Viewer(buf, exaggeration=0.5)
+
+
+def _writer(buf: RecordBuffer, src: np.ndarray, stop: threading.Event) -> None:
+    """Write rows at 1 kHz wall time, as a paced loop does (row first, then n)."""
+    t0 = time.perf_counter()
+    for k in range(src.shape[0]):
+        if stop.is_set():
+            return
+        buf.data[k] = src[k]
+        buf.n = k + 1
+        while time.perf_counter() - t0 < (k + 1) * DT:
+            time.sleep(2e-4)
+
+
+def test_headless_client_sees_scene_and_plot_updates_while_test_runs(record):
+    """A websocket client (subprotocol viser-v<version>) receives plate poses and SSP / history
+    data that advance with the samples a running test writes into its buffer."""
+    full = buffer_from_record(record)
+    live = RecordBuffer(full.columns, full.n, full.meta)
+    v = Viewer(live, live=True, port=0, rate=30).start()
+    stop = threading.Event()
+    writer = threading.Thread(target=_writer, args=(live, full.data, stop), daemon=True)
+    try:
+        with HeadlessClient(v.port) as client:
+            writer.start()
+            time.sleep(1.5)
+            n_written = live.n
+            msgs = client.snapshot()
+    finally:
+        stop.set()
+        writer.join()
+        v.stop()
+    assert 0 < n_written < full.n  # the test was still running while we watched
+    plate = [m["position"] for m in msgs
+             if m["type"] == "SetPositionMessage" and m["name"] == "/platform/top"]
+    assert len(plate) >= 10
+    assert len({round(p[2], 9) for p in plate}) >= 5  # the plate moves
+    ssp_uuid = v.ssp_plot._impl.uuid  # noqa: SLF001 — identify the SSP panel's updates
+    ssp = [m["updates"]["data"] for m in msgs if m["type"] == "GuiUpdateMessage"
+           and m["uuid"] == ssp_uuid and "data" in m["updates"]]
+    assert len(ssp) >= 10
+    z, zm = ssp[-1][0], ssp[-1][1]
+    assert z.size > 10 and np.all(np.diff(z) >= 0)
+    written = set(zip(full.data[:n_written, full.index["z_cmd.z"]],
+                      full.data[:n_written, full.index["z_meas.z"]], strict=True))
+    assert set(zip(z, zm, strict=True)) <= written  # each dot is one recorded (z, z') pair
+    disp_uuid = v.disp_plot._impl.uuid  # noqa: SLF001
+    t_last = [m["updates"]["data"][0][-1] for m in msgs if m["type"] == "GuiUpdateMessage"
+              and m["uuid"] == disp_uuid and "data" in m["updates"]]
+    assert len(t_last) >= 10 and np.all(np.diff(t_last) > 0)
+    assert t_last[-1] <= full.data[n_written - 1, 0] + 1e-12
+
+
+# ---------------------------------------------------------------------- CLI
+def test_cli_replays_a_record_and_prints_the_url(tmp_path, record):
+    """`rths3d view RECORD --port 0 --seconds 1` serves the replay on 127.0.0.1 and exits 0."""
+    path = record.save(tmp_path / "rec.parquet")
+    out = subprocess.run([sys.executable, "-m", "rths3d", "view", str(path), "--port", "0",
+                          "--seconds", "1"], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "rths3d view: http://127.0.0.1:" in out.stdout
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["missing.parquet"], "does not exist"),
+    (["rec.csv", "--rate", "100"], "--rate"),
+])
+def test_cli_bad_input_is_one_line_exit_2(tmp_path, args, needle, record):
+    """Bad CLI input prints one line naming the problem and exits with code 2."""
+    record.save(tmp_path / "rec.csv")
+    out = subprocess.run([sys.executable, "-m", "rths3d", "view", *args], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2
+    assert needle in out.stderr and "Traceback" not in out.stderr
