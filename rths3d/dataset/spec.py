@@ -25,6 +25,7 @@ Example::
     [family.sample]
     n = 50
     "transfer.delay" = { loguniform = [1e-3, 2e-2] }
+    "transfer.compensation" = { choice = ["none", "velocity"] }
 
 The enumeration is deterministic per ``seed``: each test gets a stable ``test_id`` (family
 name + a hash of its parameters) and an integer ``seed`` for its own randomness.
@@ -58,7 +59,8 @@ class Family:
     scene: str
     transfer: str | None = None
     grid: Mapping[str, tuple[Any, ...]] = field(default_factory=dict)
-    sample: Mapping[str, tuple[str, float, float]] = field(default_factory=dict)
+    sample: Mapping[str, tuple[str, Any, Any]] = field(default_factory=dict)
+    """Random draws: key → (``uniform`` | ``loguniform``, lo, hi) or (``choice``, values, None)."""
     n_sample: int = 0
     subset: int | None = None
     fixed: Mapping[str, Any] = field(default_factory=dict)
@@ -107,7 +109,8 @@ class SweepSpec:
 def _family_dict(f: Family) -> dict[str, Any]:
     return {"name": f.name, "scene": f.scene, "transfer": f.transfer,
             "grid": {k: list(v) for k, v in f.grid.items()},
-            "sample": {k: list(v) for k, v in f.sample.items()}, "n": f.n_sample,
+            "sample": {k: [v[0], list(v[1]) if v[0] == "choice" else v[1], v[2]]
+                       for k, v in f.sample.items()}, "n": f.n_sample,
             "subset": f.subset, "fixed": dict(f.fixed)}
 
 
@@ -136,7 +139,9 @@ def enumerate_tests(spec: SweepSpec) -> list[dict[str, Any]]:
                     p = dict(c)
                     for k, (kind, lo, hi) in fam.sample.items():
                         u = float(rng.uniform())
-                        if kind == "loguniform":
+                        if kind == "choice":
+                            p[k] = lo[min(int(u * len(lo)), len(lo) - 1)]
+                        elif kind == "loguniform":
                             p[k] = float(math.exp(math.log(lo) + u * (math.log(hi) - math.log(lo))))
                         else:
                             p[k] = float(lo + u * (hi - lo))
@@ -182,14 +187,20 @@ def _parse_family(d: Mapping[str, Any], where: str) -> Family:
         if not vals:
             raise ConfigError(f"{where}.grid.{k}", v, "needs at least one value")
         grid[str(k)] = tuple(vals)
-    sample: dict[str, tuple[str, float, float]] = {}
+    sample: dict[str, tuple[str, Any, Any]] = {}
     sraw = dict(d.get("sample", {}))
     n_sample = int(sraw.pop("n", 0)) if sraw else 0
     for k, v in sraw.items():
         if not isinstance(v, dict) or len(v) != 1:
             raise ConfigError(f"{where}.sample.{k}", v,
-                              "write {uniform = [lo, hi]} or {loguniform = [lo, hi]}")
+                              "write {uniform = [lo, hi]}, {loguniform = [lo, hi]} or "
+                              "{choice = [...]}")
         kind, rng = next(iter(v.items()))
+        if kind == "choice":
+            if not isinstance(rng, list) or not rng:
+                raise ConfigError(f"{where}.sample.{k}", v, "choice needs a non-empty list")
+            sample[str(k)] = ("choice", tuple(rng), None)
+            continue
         if kind not in ("uniform", "loguniform") or not isinstance(rng, list) or len(rng) != 2:
             raise ConfigError(f"{where}.sample.{k}", v,
                               "write {uniform = [lo, hi]} or {loguniform = [lo, hi]}")
