@@ -1,0 +1,458 @@
+"""Time stepping of the benchmark loop, exactly as the Simulink model behaves (SPEC §7).
+
+At each major step t_k = k·h (h = 1/4096 s): read the specimen displacement x_k and the
+numerical floor-1 displacement y_n,k; the force derivative blocks give v_k, a_k by backward
+differences; the sensors give x_m = x + n_D and f_meas = k_e x + c_e v + m_e a + n_F; the
+controller (A/D → Tustin phase lead → D/A on y_n; A/D → Tustin PI → D/A on y_p − x_m) gives
+y_gc,k, held over the step. Then both continuous parts take one RK4 step: the numerical
+substructure with ẍ_g linearly interpolated at the stage times and the force of the previous
+sample (unit delay), the plant with y_gc held and the CSI derivative block's stage rule. Both
+RK4 steps are linear, so they are precomputed as matrices (:func:`numerical_step_matrices`,
+:func:`rths3d.rthsbench.plant.plant_step_matrices`).
+
+Two loops share these matrices: a single test in plain Python floats (generated, unrolled code;
+the hot path) and K tests with numpy arrays over tests (perturbed trials).
+"""
+
+from __future__ import annotations
+
+import math
+from array import array
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from ..errors import SafetyStop
+from ..lti import (
+    ContinuousSS,
+    GroundMotion,
+    affine_step_matrices,
+    c2d,
+    lead_lag,
+    lsim_foh,
+    pi_controller,
+    ss,
+)
+from ..lti.noise import band_limited_std, normal_sequence, simulink_randn
+from ..metrics.criteria import j_criteria
+from .config import BenchmarkConfig, load_excitation
+from .plant import PlantParams, plant_step_matrices
+from .structure import CaseMatrices, case_matrices
+
+__all__ = ["BenchmarkResult", "numerical_step_matrices", "reference_response", "run_case",
+           "run_trials"]
+
+
+@dataclass(eq=False)
+class BenchmarkResult:
+    """Logged signals of one run (SI) and its criteria.
+
+    ``t`` (s), ``x_m`` measured specimen displacement (m), ``x_num`` (N, 3) numerical floor
+    displacements (m), ``x_ref`` (N, 3) reference displacements (m), ``ag`` scaled ground
+    acceleration (m/s²), ``f_act`` actuator force (N), ``y_gc`` command (m), ``f_meas``
+    measured force (N). ``status`` is ``ok`` or ``stopped`` with ``reason``; after a stop the
+    arrays hold the samples up to and including the stopping one. ``j``: J1 (s), J2–J9 (%).
+    """
+
+    config: BenchmarkConfig
+    t: np.ndarray
+    x_m: np.ndarray
+    x_num: np.ndarray
+    x_ref: np.ndarray
+    ag: np.ndarray
+    f_act: np.ndarray
+    y_gc: np.ndarray
+    f_meas: np.ndarray
+    status: str = "ok"
+    reason: str = ""
+    j: dict[str, float] = field(default_factory=dict)
+    plant: PlantParams | None = None
+
+    @property
+    def peak_force(self) -> float:
+        """max |F_act| over the run (N)."""
+        return float(np.max(np.abs(self.f_act))) if self.f_act.size else 0.0
+
+    def table_row(self) -> dict[str, float]:
+        """Criteria in the benchmark's units: ``J1`` in ms, ``J2``…``J9`` in %."""
+        from ..metrics.criteria import benchmark_row
+
+        return benchmark_row(self.j)
+
+    def to_record(self):  # -> rths3d.record.Record
+        """The run as an rths3d Record (single DOF ``z`` = the interface, floor 1)."""
+        from ..record import Record
+
+        c = self.config
+        cols: dict[str, np.ndarray] = {
+            "z_cmd.z": self.x_num[:, 0], "z_meas.z": self.x_m, "f_meas.z": self.f_meas,
+            "z_ref.z": self.x_ref[:, 0], "f_act": self.f_act, "y_gc": self.y_gc,
+            "ag": self.ag,
+        }
+        for i in range(3):
+            cols[f"x_num.{i}"] = self.x_num[:, i]
+            cols[f"x_ref.{i}"] = self.x_ref[:, i]
+        m = case_matrices(c.case, c.plant.m_e, c.plant.c_e, c.plant.k_e)
+        meta: dict[str, Any] = {
+            "scene": f"rthsbench_case{c.case}_{c.excitation}", "transfer": "lti",
+            "dt": c.dt, "status": self.status, "reason": self.reason,
+            "params": {"case": c.case, "excitation": c.excitation, "intensity": c.intensity,
+                       "noise": c.noise, "force_delay": c.force_delay},
+            "numerical": {"M": m.Mn.tolist(), "C": m.Cn.tolist(), "K": m.Kn.tolist(),
+                          "gamma": m.gamma[:, None].tolist()},
+            "experiment": {"m_exp": c.plant.m_e, "k_exp": [[c.plant.k_e]],
+                           "c_exp": c.plant.c_e},
+            "j_criteria": self.j,
+        }
+        return Record(self.t, cols, meta)
+
+
+def numerical_step_matrices(m: CaseMatrices, h: float, ground_interp: str = "linear"
+                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One RK4 step of ``M_n ẍ + C_n ẋ + K_n x = −M ι ẍ_g − γ f`` as
+    ``z_{k+1} = Φ z_k + G [ẍ_g(t_k), ẍ_g(t_k + h/2), ẍ_g(t_k + h)] + g_f f``; z = [x; ẋ].
+
+    ``ground_interp="hold"`` uses ẍ_g(t_k) at all stages (the result of G then sums into its
+    first column). Returns ``(Φ (6×6), G (6×3), g_f (6,))``.
+    """
+    Mi = np.linalg.inv(m.Mn)
+    A = np.block([[np.zeros((3, 3)), np.eye(3)], [-Mi @ m.Kn, -Mi @ m.Cn]])
+    b_ag = np.concatenate([np.zeros(3), -Mi @ m.M @ m.iota])
+    b_f = np.concatenate([np.zeros(3), -Mi @ m.gamma])
+    hold = ground_interp == "hold"
+
+    def step(z: np.ndarray, u: np.ndarray) -> np.ndarray:
+        a0, am, a1, f = u
+        if hold:
+            am = a1 = a0
+        k1 = A @ z + b_ag * a0 + b_f * f
+        k2 = A @ (z + 0.5 * h * k1) + b_ag * am + b_f * f
+        k3 = A @ (z + 0.5 * h * k2) + b_ag * am + b_f * f
+        k4 = A @ (z + h * k3) + b_ag * a1 + b_f * f
+        return z + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+
+    Phi, G = affine_step_matrices(step, 6, 4)
+    return Phi, G[:, :3].copy(), G[:, 3].copy()
+
+
+def reference_system(m: CaseMatrices) -> ContinuousSS:
+    """``M ẍ + C ẋ + K x = −M ι ẍ_g`` as state space, input ẍ_g (m/s²), outputs x (m)."""
+    Mi = np.linalg.inv(m.M)
+    A = np.block([[np.zeros((3, 3)), np.eye(3)], [-Mi @ m.K, -Mi @ m.C]])
+    B = np.concatenate([np.zeros(3), -m.iota])[:, None]
+    return ss(A, B, np.hstack([np.eye(3), np.zeros((3, 3))]))
+
+
+def reference_response(m: CaseMatrices, ag: np.ndarray, dt: float, method: str = "foh"
+                       ) -> np.ndarray:
+    """Exact reference floor displacements (N, 3) for ground-acceleration samples ``ag``.
+
+    ``foh``: input linear between samples (MATLAB lsim on the logged samples); ``zoh``: held.
+    """
+    sysr = reference_system(m)
+    if method == "foh":
+        return lsim_foh(sysr, ag, dt)
+    d = c2d(sysr, dt, "zoh")
+    from ..lti.discretize import _recur
+
+    X = np.zeros((ag.size, 6))
+    if ag.size > 1:
+        X[1:] = _recur(d.Ad, np.zeros(6), ag[:-1, None] @ d.Bd.T)
+    return X @ d.Cd.T
+
+
+def _noise(cfg: BenchmarkConfig, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Displacement (m) and force (N) noise sequences, held per sample."""
+    if not cfg.noise:
+        z = np.zeros(n)
+        return z, z
+    if cfg.noise_generator == "simulink":
+        w = simulink_randn(n, cfg.noise_seed)
+        w_f = w if cfg.noise_shared else simulink_randn(n, cfg.noise_seed + 1)
+    else:
+        w = normal_sequence(n, cfg.noise_seed)
+        w_f = w if cfg.noise_shared else normal_sequence(n, cfg.noise_seed + 1)
+    return (band_limited_std(cfg.noise_cov_d, cfg.dt) * w,
+            band_limited_std(cfg.noise_cov_f, cfg.dt) * w_f)
+
+
+def _controller_coeffs(cfg: BenchmarkConfig) -> tuple[float, ...]:
+    c = cfg.controller
+    pi = pi_controller(c.kp, c.ki, cfg.dt)
+    if c.phase_lead:
+        pl = lead_lag(c.lead_num, c.lead_den, cfg.dt)
+        lb0, lb1, la1 = pl.b[0], pl.b[1], pl.a[1]
+    else:
+        lb0, lb1, la1 = 1.0, 0.0, 0.0
+    return lb0, lb1, la1, pi.b[0], pi.b[1], -pi.a[1]
+
+
+def _grid(cfg: BenchmarkConfig, gm: GroundMotion) -> tuple[int, np.ndarray]:
+    t_end = gm.t_end if cfg.t_end is None else min(cfg.t_end, gm.t_end)
+    n = int(math.floor(t_end / cfg.dt + 1e-9)) + 1
+    return n, cfg.dt * np.arange(n)
+
+
+def _ground_stages(cfg: BenchmarkConfig, gm: GroundMotion, t: np.ndarray) -> np.ndarray:
+    """ẍ_g at t_k, t_k + h/2, t_k + h for every step, shape (N, 3) (m/s²)."""
+    a0 = gm(t)
+    if cfg.ground_interp == "hold":
+        return np.stack([a0, a0, a0], axis=1)
+    return np.stack([a0, gm(t + 0.5 * cfg.dt), gm(t + cfg.dt)], axis=1)
+
+
+# ---------------------------------------------------------------------------------------
+# single test: generated straight-line Python (plain floats, no numpy in the loop)
+
+def _lin(terms: list[tuple[float, str]], extra: str = "") -> str:
+    parts = [f"{float(c)!r}*{v}" for c, v in terms if c != 0.0]
+    if extra:
+        parts.append(extra)
+    return " + ".join(parts) if parts else "0.0"
+
+
+def _conv(var: str, src: str, kind: str, q: float, sat: float, indent: str) -> list[str]:
+    """Lines computing ``var`` = A/D or D/A of ``src`` (saturation ±sat, quantisation q)."""
+    sat_lines = [f"{indent}if {var} > {sat!r}: {var} = {sat!r}",
+                 f"{indent}elif {var} < {-sat!r}: {var} = {-sat!r}"]
+    if q > 0.0:
+        qlines = [f"{indent}if {var} >= 0.0: {var} = {q!r}*_floor({var}/{q!r} + 0.5)",
+                  f"{indent}else: {var} = -{q!r}*_floor(-{var}/{q!r} + 0.5)"]
+    else:
+        qlines = []
+    body = sat_lines + qlines if kind == "ad" else qlines + sat_lines
+    return [f"{indent}{var} = {src}", *body]
+
+
+def _build_scalar_loop(cfg: BenchmarkConfig, Phi_n: np.ndarray, gf: np.ndarray,
+                       Phi_p: np.ndarray, gy: np.ndarray, gx: np.ndarray, conv: bool):
+    p = cfg.plant
+    lb0, lb1, la1, pb0, pb1, pa1 = (float(v) for v in _controller_coeffs(cfg))
+    inv_h = 1.0 / cfg.dt
+    q, sat = (float(cfg.q), float(cfg.sat)) if conv else (0.0, math.inf)
+    I = "        "
+    L = [
+        "def _loop(N, g0, g1, g2, g3, g4, g5, nD, nF, o_xm, o_x1, o_x2, o_x3, o_F, o_ygc,"
+        " o_fm):",
+        "    _floor = floor",
+        "    z0 = z1 = z2 = z3 = z4 = z5 = 0.0",
+        "    p0 = p1 = p2 = p3 = p4 = 0.0",
+        "    xprev = vprev = fdel = u1p = yplp = ep = ypip = 0.0",
+        "    for k in range(N):",
+        f"{I}x = p3",
+        f"{I}v = (x - xprev)*{inv_h!r}",
+        f"{I}a = (v - vprev)*{inv_h!r}",
+        f"{I}xm = x + nD[k]",
+        f"{I}fm = {p.k_e!r}*x + {p.c_e!r}*v + {p.m_e!r}*a + nF[k]",
+    ]
+    if math.isfinite(sat):
+        L += _conv("u1", "z0", "ad", q, sat, I)
+    else:
+        L += [f"{I}u1 = z0"]
+    L += [f"{I}ypl = {lb0!r}*u1 + {lb1!r}*u1p - {la1!r}*yplp"]
+    L += _conv("yp", "ypl", "da", q, sat, I) if math.isfinite(sat) else [f"{I}yp = ypl"]
+    L += _conv("e", "yp - xm", "ad", q, sat, I) if math.isfinite(sat) else [f"{I}e = yp - xm"]
+    L += [f"{I}ypi = ypip + {pb0!r}*e + {pb1!r}*ep"]
+    L += _conv("ygc", "ypi", "da", q, sat, I) if math.isfinite(sat) else [f"{I}ygc = ypi"]
+    L += [
+        f"{I}o_xm[k] = xm; o_x1[k] = z0; o_x2[k] = z1; o_x3[k] = z2",
+        f"{I}o_F[k] = p2; o_ygc[k] = ygc; o_fm[k] = fm",
+        f"{I}if not ({-cfg.force_limit!r} < p2 < {cfg.force_limit!r}):",
+        f"{I}    return k, p2",
+    ]
+    ff = "fdel" if cfg.force_delay else "fm"
+    zs = [f"z{i}" for i in range(6)]
+    for i in range(6):
+        L.append(f"{I}n{i} = " + _lin([(Phi_n[i, j], zs[j]) for j in range(6)]
+                                      + [(gf[i], ff)], f"g{i}[k]"))
+    ps = [f"p{i}" for i in range(5)]
+    for i in range(5):
+        L.append(f"{I}m{i} = " + _lin([(Phi_p[i, j], ps[j]) for j in range(5)]
+                                      + [(gy[i], "ygc"), (gx[i], "xprev")]))
+    L += [
+        f"{I}z0 = n0; z1 = n1; z2 = n2; z3 = n3; z4 = n4; z5 = n5",
+        f"{I}p0 = m0; p1 = m1; p2 = m2; p3 = m3; p4 = m4",
+        f"{I}xprev = x; vprev = v; fdel = fm",
+        f"{I}u1p = u1; yplp = ypl; ep = e; ypip = ypi",
+        "    return N, 0.0",
+    ]
+    ns: dict[str, Any] = {"floor": math.floor}
+    exec(compile("\n".join(L), "<rthsbench loop>", "exec"), ns)  # noqa: S102
+    return ns["_loop"]
+
+
+def _prepare(cfg: BenchmarkConfig, plant: PlantParams):
+    m = case_matrices(cfg.case, plant.m_e, plant.c_e, plant.k_e)
+    Phi_n, G_ag, gf = numerical_step_matrices(m, cfg.dt, cfg.ground_interp)
+    Phi_p, gy, gx = plant_step_matrices(plant, cfg.dt, cfg.derivative)
+    return m, Phi_n, G_ag, gf, Phi_p, gy, gx
+
+
+def _finish(cfg: BenchmarkConfig, plant: PlantParams, t: np.ndarray, ag: np.ndarray,
+            xm: np.ndarray, xnum: np.ndarray, F: np.ndarray, ygc: np.ndarray, fm: np.ndarray,
+            stop: SafetyStop | None, n: int, x_ref_full: np.ndarray) -> BenchmarkResult:
+    xr = x_ref_full[:n]
+    res = BenchmarkResult(cfg, t[:n], xm[:n], xnum[:n], xr, ag[:n], F[:n], ygc[:n], fm[:n],
+                          plant=plant)
+    if stop is not None:
+        res.status, res.reason = "stopped", stop.reason
+    if n > 60:
+        res.j = j_criteria(res.x_num[:, 0], res.x_m, res.x_num, res.x_ref, dt=cfg.dt,
+                           convention=cfg.convention)
+    return res
+
+
+def run_case(cfg: BenchmarkConfig | None = None, data_path: str | None = None,
+             gm: GroundMotion | None = None, raise_on_stop: bool = False) -> BenchmarkResult:
+    """Run one benchmark test (single trial, plant ``cfg.plant``) and evaluate J1–J9.
+
+    If |F_act| reaches ``cfg.force_limit`` the test stops at that sample: the result has
+    ``status="stopped"``, the reason, and the samples so far (or, with ``raise_on_stop``, a
+    :class:`~rths3d.errors.SafetyStop` is raised).
+    """
+    cfg = cfg or BenchmarkConfig()
+    if gm is None:
+        gm = load_excitation(cfg.excitation, cfg.intensity, data_path)
+    else:
+        gm = gm.scaled(cfg.intensity)
+    N, t = _grid(cfg, gm)
+    m, Phi_n, G_ag, gf, Phi_p, gy, gx = _prepare(cfg, cfg.plant)
+    stages = _ground_stages(cfg, gm, t)
+    forcing = stages @ G_ag.T  # (N, 6)
+    g = [forcing[:, i].tolist() for i in range(6)]
+    nD, nF = _noise(cfg, N)
+    loop = _build_scalar_loop(cfg, Phi_n, gf, Phi_p, gy, gx, cfg.quantize)
+    bufs = [array("d", bytes(8 * N)) for _ in range(7)]
+    n_done, f_stop = loop(N, *g, nD.tolist(), nF.tolist(), *bufs)
+    o = [np.frombuffer(b, dtype=float) for b in bufs]
+    stop = None
+    n = N
+    if n_done < N:
+        n = n_done + 1
+        stop = SafetyStop("actuator force |F_act|", abs(f_stop), cfg.force_limit,
+                          float(t[n_done]), 0, "N")
+    ag = stages[:, 0]
+    x_ref = reference_response(m, ag[:n], cfg.dt, cfg.reference)
+    res = _finish(cfg, cfg.plant, t, ag, o[0], np.stack(o[1:4], axis=1), o[4], o[5], o[6],
+                  stop, n, x_ref)
+    if stop is not None and raise_on_stop:
+        raise stop
+    return res
+
+
+def run_trials(cfg: BenchmarkConfig | None = None, n_trials: int = 20, seed: int = 123,
+               plants: list[PlantParams] | None = None, data_path: str | None = None,
+               gm: GroundMotion | None = None) -> list[BenchmarkResult]:
+    """Run ``n_trials`` perturbed-plant trials together (numpy arrays over trials).
+
+    Plants are drawn with :meth:`PlantParams.perturbed` from ``numpy.random.default_rng(seed)``
+    (or given as ``plants``). The numerical substructure of each trial uses its own perturbed
+    k_e and c_e so that numerical + experimental always add up to the reference structure.
+    All trials share the sensor-noise realisation of ``cfg``. A trial reaching the force
+    limit stops (its result is ``stopped``, truncated); the others go on.
+    """
+    cfg = cfg or BenchmarkConfig()
+    if plants is None:
+        rng = np.random.default_rng(seed)
+        plants = [cfg.plant.perturbed(rng) for _ in range(int(n_trials))]
+    K = len(plants)
+    if gm is None:
+        gm = load_excitation(cfg.excitation, cfg.intensity, data_path)
+    else:
+        gm = gm.scaled(cfg.intensity)
+    N, t = _grid(cfg, gm)
+    stages = _ground_stages(cfg, gm, t)
+    prep = [_prepare(cfg, p) for p in plants]
+    m_ref = prep[0][0]
+    PhiN = np.stack([p[1] for p in prep])        # (K, 6, 6)
+    Gag = np.stack([p[2] for p in prep])         # (K, 6, 3)
+    GF = np.stack([p[3] for p in prep])          # (K, 6)
+    PhiP = np.stack([p[4] for p in prep])        # (K, 5, 5)
+    GY = np.stack([p[5] for p in prep])          # (K, 5)
+    GX = np.stack([p[6] for p in prep])          # (K, 5)
+    ke = np.array([p.k_e for p in plants])
+    ce = np.array([p.c_e for p in plants])
+    me = np.array([p.m_e for p in plants])
+    nD, nF = _noise(cfg, N)
+    lb0, lb1, la1, pb0, pb1, pa1 = _controller_coeffs(cfg)
+    q, sat, conv = cfg.q, cfg.sat, cfg.quantize
+    h_inv = 1.0 / cfg.dt
+    limit = cfg.force_limit
+
+    def ad(u: np.ndarray) -> np.ndarray:
+        if not conv:
+            return u
+        u = np.clip(u, -sat, sat)
+        return q * np.sign(u) * np.floor(np.abs(u) / q + 0.5) if q > 0 else u
+
+    def da(u: np.ndarray) -> np.ndarray:
+        if not conv:
+            return u
+        u = q * np.sign(u) * np.floor(np.abs(u) / q + 0.5) if q > 0 else u
+        return np.clip(u, -sat, sat)
+
+    Z = np.zeros((K, 6, 1))
+    P = np.zeros((K, 5, 1))
+    xprev = np.zeros(K)
+    vprev = np.zeros(K)
+    fdel = np.zeros(K)
+    u1p = np.zeros(K)
+    yplp = np.zeros(K)
+    ep = np.zeros(K)
+    ypip = np.zeros(K)
+    XM = np.empty((N, K))
+    XN = np.empty((N, K, 3))
+    FA = np.empty((N, K))
+    YG = np.empty((N, K))
+    FM = np.empty((N, K))
+    stop_at = np.full(K, -1)
+    alive = np.ones(K, dtype=bool)
+    chunk = 2048
+    for c0 in range(0, N, chunk):
+        c1 = min(N, c0 + chunk)
+        forcing = np.einsum("kij,nj->nki", Gag, stages[c0:c1])  # (n, K, 6)
+        for k in range(c0, c1):
+            x = P[:, 3, 0].copy()
+            v = (x - xprev) * h_inv
+            a = (v - vprev) * h_inv
+            xm = x + nD[k]
+            fm = ke * x + ce * v + me * a + nF[k]
+            u1 = ad(Z[:, 0, 0])
+            ypl = lb0 * u1 + lb1 * u1p - la1 * yplp
+            e = ad(da(ypl) - xm)
+            ypi = ypip + pb0 * e + pb1 * ep
+            ygc = da(ypi)
+            F = P[:, 2, 0]
+            XM[k] = xm
+            XN[k] = Z[:, :3, 0]
+            FA[k] = F
+            YG[k] = ygc
+            FM[k] = fm
+            bad = alive & ~(np.abs(F) < limit)
+            if bad.any():
+                stop_at[bad] = k
+                alive &= ~bad
+                if not alive.any():
+                    break
+            ff = fdel if cfg.force_delay else fm
+            Z = PhiN @ Z
+            Z[:, :, 0] += forcing[k - c0] + GF * ff[:, None]
+            P = PhiP @ P
+            P[:, :, 0] += GY * ygc[:, None] + GX * xprev[:, None]
+            xprev, vprev, fdel = x, v, fm
+            u1p, yplp, ep, ypip = u1, ypl, e, ypi
+        if not alive.any():
+            break
+    ag = stages[:, 0]
+    results = []
+    for i, p in enumerate(plants):
+        n = N if stop_at[i] < 0 else int(stop_at[i]) + 1
+        stop = None
+        if stop_at[i] >= 0:
+            stop = SafetyStop("actuator force |F_act|", abs(FA[n - 1, i]), limit,
+                              float(t[n - 1]), i, "N")
+        x_ref = reference_response(m_ref, ag[:n], cfg.dt, cfg.reference)
+        results.append(_finish(replace(cfg, plant=p), p, t, ag, XM[:, i], XN[:, i, :],
+                               FA[:, i], YG[:, i], FM[:, i], stop, n, x_ref))
+    return results
