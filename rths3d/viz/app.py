@@ -140,8 +140,18 @@ class Viewer:
         self.server = viser.ViserServer(host=self._host, port=self._port, verbose=False)
         self.server.gui.configure_theme(control_width="large", dark_mode=False,
                                         show_logo=False)
-        self.server.initial_camera.position = (1.5, -1.7, 1.2)
-        self.server.initial_camera.look_at = (-0.2, 0.0, 0.35)
+        self.server.initial_camera.position = (1.05, -1.25, 0.95)
+        self.server.initial_camera.look_at = (-0.22, 0.0, 0.32)
+        if self.playback is not None:
+            # Replay from the start for whoever opens the page first.
+            first = threading.Event()
+
+            def _on_connect(_client: Any) -> None:
+                if not first.is_set():
+                    first.set()
+                    self.playback.restart()
+
+            self.server.on_client_connect(_on_connect)
         self.scene = PlatformScene(self.server, self.buffer, self.geometry)
         self.scene.exaggeration = self._exaggeration
         self._build_gui()
@@ -238,7 +248,7 @@ class Viewer:
             self.ssp_plot = gui.add_uplot(
                 data=tuple(empty for _ in ssp_series), series=tuple(ssp_series),
                 title=f"SSP: z' against z ({ch.dof})", scales={"x": {"time": False}},
-                aspect=1.2)
+                axes=({}, {"size": 64}), aspect=1.2)
             disp_series = [{"label": "t (s)"},
                            {"label": f"z ({u})", "stroke": "#2ca02c", "width": 1.5},
                            {"label": "z' meas.", "stroke": "#1f77b4", "width": 1.5},
@@ -252,10 +262,12 @@ class Viewer:
                                      "width": 1.5, "dash": [6, 3]})
             self.disp_plot = gui.add_uplot(
                 data=tuple(empty for _ in disp_series), series=tuple(disp_series),
-                title=f"z, z', z^r ({ch.dof}, {u})", scales={"x": {"time": False}}, aspect=2.0)
+                title=f"z, z', z^r ({ch.dof}, {u})", scales={"x": {"time": False}},
+                axes=({}, {"size": 64}), aspect=2.0)
             self.force_plot = gui.add_uplot(
                 data=tuple(empty for _ in force_series), series=tuple(force_series),
-                title=f"F'_m ({ch.dof}, {fu})", scales={"x": {"time": False}}, aspect=2.4)
+                title=f"F'_m ({ch.dof}, {fu})", scales={"x": {"time": False}},
+                axes=({}, {"size": 64}), aspect=2.4)
 
     def _build_run_controls(self) -> None:
         gui, ctl = self.server.gui, self.control

@@ -36,8 +36,12 @@ GHOST_COLOR = (60, 180, 110)
 FORCE_COLOR = (220, 30, 30)
 TORQUE_COLOR = (150, 40, 200)
 
-ARROW_LENGTH = 0.25
+ARROW_LENGTH = 0.15
 """Length (m) the largest interface force (or torque) of the stream is drawn with."""
+
+ARROW_OFFSET = (0.14, 0.0, 0.15)
+"""The wrench arrows start at this offset (m, plate frame) from the sensor origin, beside the
+specimen that would otherwise hide them and above the plate so downward forces show too."""
 
 
 def _meta_number(meta: dict[str, Any], *keys: str) -> float | None:
@@ -195,8 +199,8 @@ class PlatformScene:
                                              colors=TORQUE_COLOR, shaft_radius=0.006,
                                              head_radius=0.016, head_length=0.03,
                                              visible=any(c >= 0 for c in self._torque_cols))
-        self.force_label = scene.add_label("/wrench/force_label", "F'_m",
-                                           position=tuple(fts_world + [0.3, 0, 0.05]))
+        self.force_label = scene.add_label("/wrench/force_label", "F'_m", anchor="bottom-left",
+                                           position=tuple(fts_world + ARROW_OFFSET + [0.02, 0, 0]))
 
     # ------------------------------------------------------------------ construction
     def _add_contact_surface(self, gap: float) -> None:
@@ -205,7 +209,7 @@ class PlatformScene:
                                   color=CONTACT_COLOR, opacity=0.85,
                                   position=(0.0, 0.0, z + 0.0075))
         self.server.scene.add_label("/experiment/contact_label", "contact surface",
-                                    position=(0.17, 0.0, z + 0.02))
+                                    anchor="bottom-left", position=(0.16, -0.15, z + 0.02))
 
     def _add_ghost(self, ndof: int) -> None:
         scene = self.server.scene
@@ -224,8 +228,8 @@ class PlatformScene:
         self.ghost_springs = scene.add_line_segments(
             "/numerical/springs", self._ghost_lines.copy(), colors=GHOST_COLOR, thickness=3.0,
             thickness_units="screen")
-        scene.add_label("/numerical/label", "numerical substructure (ghost)",
-                        position=(x0, 0.0, self._ghost_z(ndof - 1, 0.0) + 0.08))
+        scene.add_label("/numerical/label", "numerical substructure", anchor="top-center",
+                        position=(x0, 0.0, -0.03))
 
     def _ghost_z(self, i: int, x: float) -> float:
         return self.ghost_spacing * (i + 1) + self.exaggeration * x
@@ -288,7 +292,7 @@ class PlatformScene:
             self.spring.scale = (1.0, 1.0, length)
             self.mass.position = (0.0, 0.0, self.spring_base + length + sp.mass_size / 2)
         # Wrench arrows from the sensor site.
-        origin = centre + R @ np.array([0.0, 0.0, self.geometry.fts_height])
+        origin = centre + R @ (np.array(ARROW_OFFSET) + [0.0, 0.0, self.geometry.fts_height])
         if any(c >= 0 for c in self._force_cols):
             f = np.array([row[c] if c >= 0 else 0.0 for c in self._force_cols])
             self._arrow_pts[0, 0] = origin
