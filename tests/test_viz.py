@@ -336,3 +336,27 @@ def test_cli_bad_input_is_one_line_exit_2(tmp_path, args, needle, record):
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 2
     assert needle in out.stderr and "Traceback" not in out.stderr
+
+
+# ---------------------------------------------------------------------- running measures
+def test_running_measures_of_a_delayed_sine(record):
+    """Over two whole periods of z = A sin ωt, z' = A sin ω(t − τ), F'_m = k z': e_rel,track
+    = √(2 − 2 cos ωτ), FEI delay = τ and HSEM^S = −2π·2·sin ωτ (E_error = −k π A² sin ωτ per
+    period, E_strain = ½ k A²)."""
+    from rths3d.viz.measures import RunningMeasures
+
+    buf = buffer_from_record(record)
+    ch = channels(buf.index, "z")
+    m = RunningMeasures(buf.meta)
+    i1 = 2500
+    i0 = i1 - 2000  # exactly two periods at 1 Hz, 1 kHz
+    v = m.compute(buf.data, ch, i0, i1)
+    phi = 2 * math.pi * FREQ * TAU
+    assert v["e_rel_track"] == pytest.approx(math.sqrt(2 - 2 * math.cos(phi)), rel=1e-3)
+    assert v["fei_delay"] == pytest.approx(TAU, rel=2e-2)
+    assert v["hsem_s"] == pytest.approx(-4 * math.pi * math.sin(phi), rel=2e-2)
+    text = m.markdown(v)
+    assert f"{v['fei_delay'] * 1e3:.3g} ms" in text
+    short = m.compute(buf.data, ch, 0, 10)
+    assert all(math.isnan(x) for x in short.values())
+    assert "—" in m.markdown(short)

@@ -126,6 +126,7 @@ class PlatformScene:
         self.torque_scale = 1e-2  # m per N·m
         idx = buffer.index
         self._pose_cols = group_indices(idx, "pose_meas", DOFS)
+        self._model_pose_cols = group_indices(idx, "model.pose_meas", DOFS)
         self._leg_cols = group_indices(idx, "leg_len", tuple(str(i) for i in range(6)))
         self._iface = [idx.get(f"z_meas.{d}", -1) for d in DOFS]
         self._force_cols = [idx.get(f"f_meas.{d}", -1) for d in ("x", "y", "z")]
@@ -186,6 +187,14 @@ class PlatformScene:
                                    + sp.mass_size)
         if sp.contact_gap is not None:
             self._add_contact_surface(sp.contact_gap)
+        # A model's prediction of the plate (diagnosis records): a translucent twin.
+        self.model_frame = None
+        if self._model_pose_cols.size:
+            self.model_frame = scene.add_frame("/model/top", show_axes=False,
+                                               position=tuple(self.home))
+            scene.add_mesh_simple("/model/top/plate", plate.vertices, plate.faces,
+                                  color=(255, 127, 14), opacity=0.35,
+                                  position=(0, 0, -g.plate_thickness / 2 + 0.001))
         # Numerical substructure: a ghost schematic of its masses and springs beside the bench.
         self._add_ghost(len(self._num_cols))
         fts_world = self.home + np.array([0.0, 0.0, g.fts_height])
@@ -284,6 +293,10 @@ class PlatformScene:
             self.cylinders[i].wxyz = quats[i]
             self.pistons[i].position = piston[i]
             self.pistons[i].wxyz = quats[i]
+        if self.model_frame is not None:
+            mp = row[self._model_pose_cols] * k
+            self.model_frame.position = self.home + mp[:3]
+            self.model_frame.wxyz = quat_from_matrix(rotation_matrix(mp[3], mp[4], mp[5]))
         # Specimen: the spring carries F'_m,z = k_exp · (deflection), mass moves by −F/k.
         sp = self.specimen
         if sp.k_exp and self._fz_col >= 0:
