@@ -304,7 +304,6 @@ class Diagnosis:
         e_tr0 = self._error(r0, train)
         e_va0 = self._error(r0, self.val)
         cands: list[Candidate] = []
-        deltas: dict[str, np.ndarray] = {}
         for name in self.candidate_names:
             if name in self.accepted:
                 continue

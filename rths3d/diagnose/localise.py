@@ -13,10 +13,13 @@ from scipy import signal
 
 
 def noise_floor(r: np.ndarray) -> float:
-    """White-noise σ of a residual from its first differences (smooth misfit cancels):
-    σ ≈ RMS(Δr)/√2, in the unit of ``r``."""
-    d = np.diff(r)
-    return float(math.sqrt(np.mean(d * d) / 2.0)) if d.size else 0.0
+    """White-noise σ of a residual, robust to smooth misfit and to sparse jumps (friction
+    reversals, contact): σ ≈ 1.4826·MAD(Δ²r)/√6, since Δ² of white noise has variance 6σ²
+    while a smooth misfit nearly cancels in second differences. Unit of ``r``."""
+    if r.size < 4:
+        return 0.0
+    d = np.diff(r, 2)
+    return float(1.4826 * np.median(np.abs(d - np.median(d))) / math.sqrt(6.0))
 
 
 def effective_samples(r: np.ndarray, max_lag: int = 500) -> float:

@@ -170,7 +170,8 @@ class SensorNoise(Effect):
 class Quantisation(Effect):
     name = "quantisation"
     stage = "adc"
-    param = Param("q", "m", 0.0, 0.0, 1e-3, 2e-6, "resolution (one step) of the displacement sensor")
+    param = Param("q", "m", 0.0, 0.0, 1e-3, 2e-6,
+                  "resolution (one step) of the displacement sensor")
     description = "Displacement sensor resolution: z' = q·round(z/q)."
     signature = "stair steps; displacement residual uniform within ±q/2"
     channels = (Z,)
@@ -189,13 +190,9 @@ class Quantisation(Effect):
             return None
         q = float(np.percentile(d, 1))
         # a quantised signal sits on integer multiples of one step
-        k = z / q
-        if q <= 0 or np.median(np.abs(k - np.round(k))) > 0.05:
+        if np.median(np.abs(z / q - np.round(z / q))) > 0.05:
             return None
-        steps = np.round(d / q)
-        steps = steps[steps > 0]
-        return float(np.median(d[np.round(d / q) > 0] / np.round(d[np.round(d / q) > 0] / q))) \
-            if steps.size else q
+        return q
 
 
 # ---------------------------------------------------------------------------- command effects
@@ -219,6 +216,9 @@ class VelocitySaturation(Effect):
         return np.asarray(y)
 
     def probe(self, measured, model, command, dt):
+        guess = self.initial_guess(measured, model, command, dt)
+        if guess is not None:
+            return guess
         v = np.abs(np.gradient(command, dt))
         return float(np.clip(0.8 * np.percentile(v, 99.5), self.param.lo, self.param.hi))
 
