@@ -18,12 +18,13 @@ from __future__ import annotations
 
 import math
 from array import array
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
-from ..errors import SafetyStop
+from ..errors import ConfigError, SafetyStop
 from ..lti import (
     ContinuousSS,
     GroundMotion,
@@ -307,6 +308,9 @@ def run_case(cfg: BenchmarkConfig | None = None, data_path: str | None = None,
              gm: GroundMotion | None = None, raise_on_stop: bool = False) -> BenchmarkResult:
     """Run one benchmark test (single trial, plant ``cfg.plant``) and evaluate J1–J9.
 
+    The record is ``cfg.excitation`` from the benchmark data, or ``gm`` if given (its scale
+    is replaced by ``cfg.intensity``).
+
     If |F_act| reaches ``cfg.force_limit`` the test stops at that sample: the result has
     ``status="stopped"``, the reason, and the samples so far (or, with ``raise_on_stop``, a
     :class:`~rths3d.errors.SafetyStop` is raised).
@@ -343,24 +347,43 @@ def run_case(cfg: BenchmarkConfig | None = None, data_path: str | None = None,
 
 def run_trials(cfg: BenchmarkConfig | None = None, n_trials: int = 20, seed: int = 123,
                plants: list[PlantParams] | None = None, data_path: str | None = None,
-               gm: GroundMotion | None = None) -> list[BenchmarkResult]:
-    """Run ``n_trials`` perturbed-plant trials together (numpy arrays over trials).
+               gm: GroundMotion | None = None, engine: str = "python",
+               progress: Callable[[int], None] | None = None) -> list[BenchmarkResult]:
+    """Run ``n_trials`` perturbed-plant trials of the case in ``cfg``.
 
     Plants are drawn with :meth:`PlantParams.perturbed` from ``numpy.random.default_rng(seed)``
     (or given as ``plants``). The numerical substructure of each trial uses its own perturbed
     k_e and c_e so that numerical + experimental always add up to the reference structure.
     All trials share the sensor-noise realisation of ``cfg``. A trial reaching the force
     limit stops (its result is ``stopped``, truncated); the others go on.
+
+    ``engine="python"`` runs each trial through the generated single-test loop (fastest on
+    one core); ``engine="numpy"`` steps all trials together with arrays over trials (an
+    independent implementation of the same step, used to cross-check the generated code).
+    ``progress(i)`` is called after each finished trial (python engine).
     """
     cfg = cfg or BenchmarkConfig()
     if plants is None:
         rng = np.random.default_rng(seed)
         plants = [cfg.plant.perturbed(rng) for _ in range(int(n_trials))]
-    K = len(plants)
+    if engine not in ("python", "numpy"):
+        raise ConfigError("engine", engine, "must be 'python' or 'numpy'")
     if gm is None:
         gm = load_excitation(cfg.excitation, cfg.intensity, data_path)
-    else:
-        gm = gm.scaled(cfg.intensity)
+    if engine == "python":
+        out = []
+        for i, p in enumerate(plants):
+            out.append(run_case(replace(cfg, plant=p), gm=gm))
+            if progress is not None:
+                progress(i)
+        return out
+    return _run_batched(cfg, plants, gm.scaled(cfg.intensity))
+
+
+def _run_batched(cfg: BenchmarkConfig, plants: list[PlantParams], gm: GroundMotion
+                 ) -> list[BenchmarkResult]:
+    """All trials stepped together with numpy arrays over trials (see :func:`run_trials`)."""
+    K = len(plants)
     N, t = _grid(cfg, gm)
     stages = _ground_stages(cfg, gm, t)
     prep = [_prepare(cfg, p) for p in plants]
