@@ -14,9 +14,25 @@ from .kinematics import (
     jacobian,
     rotation_matrix,
 )
+from .model import ActuatorConfig, PlatformConfig, build_model, build_spec, predicted_delay
+from .sim import PlatformBatch, PlatformSim, StaticState
+from .tracking import TrackingFigures, sine_delay, sine_trajectory, track, tracking_figures
 
 __all__ = [
     "DEFAULT_GEOMETRY",
+    "ActuatorConfig",
+    "PlatformBatch",
+    "PlatformConfig",
+    "PlatformSim",
+    "StaticState",
+    "TrackingFigures",
+    "build_model",
+    "build_spec",
+    "predicted_delay",
+    "sine_delay",
+    "sine_trajectory",
+    "track",
+    "tracking_figures",
     "ForwardKinematicsError",
     "ScalarIK",
     "StewartGeometry",

@@ -1,0 +1,379 @@
+"""The MuJoCo model of the Stewart platform, generated from its geometry.
+
+Structure (stable names for consumers):
+
+* ``base``: the fixed base (visual mesh).
+* ``leg{i}_cyl``: cylinder body on a universal joint (hinges ``leg{i}_u1``, ``leg{i}_u2``)
+  at base anchor ``b_i``, its frame z axis along the home leg direction.
+* ``leg{i}_piston``: piston on the slide joint ``leg{i}_slide`` (0 at the home length), with
+  the tip site ``leg{i}_tip`` at the home leg length.
+* ``plate``: the top plate on a free joint ``plate_free``; its frame is the plate frame of
+  :mod:`~rths3d.platform.geometry` (origin at the centre of the top-anchor circle, at
+  ``home_height`` at home). Sites ``plate_anchor{i}`` at ``p_i``. Each tip is tied to its
+  plate anchor by an equality ``connect`` named ``leg{i}_connect``.
+* ``fts_body``: a massless body welded on top of the plate (the force-torque sensor's tool
+  side; the sensor housing, ``fts_mass``, belongs to the plate). At the sensor's upper face it
+  carries the site ``fts`` (frame parallel to the plate frame, z up at home) and the
+  sensors ``fts_force`` (N) / ``fts_torque`` (N·m). MuJoCo reports the force and torque that
+  the plate exerts on ``fts_body`` and everything mounted on it, in the site frame, torque
+  about the site origin: statically ``+m·g`` upwards for a payload of mass m.
+* ``payload_xml`` bodies are children of ``fts_body`` in the ``fts`` site frame.
+* ``leg{i}``: position actuators on the slide joints (set-point = piston extension, m).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+
+from ..errors import ConfigError
+from .geometry import DEFAULT_GEOMETRY, StewartGeometry
+
+__all__ = [
+    "ActuatorConfig",
+    "PlatformConfig",
+    "build_model",
+    "build_spec",
+    "model_xml",
+    "predicted_delay",
+]
+
+
+def _check(name: str, value: float, ok: bool, limit: str) -> None:
+    if not ok:
+        raise ConfigError(name, value, limit)
+
+
+@dataclass(frozen=True)
+class ActuatorConfig:
+    """Leg actuation: a position servo per leg with optional lag, delay and feed-forward.
+
+    The MuJoCo actuator force is ``f = kp·(a − s) − kv·ṡ`` with the piston extension ``s``
+    (m) and the filtered set-point ``a``; ``a`` follows the command through a first-order lag
+    of time constant ``timeconst`` and a transport delay ``delay``.
+
+    Attributes
+    ----------
+    kp:
+        Position gain (N/m).
+    kv:
+        Velocity gain (N·s/m). It damps the absolute leg velocity, which lags the leg by
+        ``kv/kp`` (s) unless ``velocity_ff`` is on.
+    timeconst:
+        Time constant of the first-order lag of the set-point (s); 0 disables it.
+    delay:
+        Transport delay of the set-point (s); 0 disables it.
+    velocity_ff:
+        Add ``(kv/kp)·dL/dt`` to the set-point (velocity feed-forward), which cancels the
+        ``kv/kp`` lag of the servo.
+    gravity_comp:
+        Add the static leg force at home divided by ``kp`` to the set-point so the platform
+        does not sag under its own and the payload's weight.
+    stroke, velocity_limit, force_limit:
+        Override the geometry's total stroke (m), piston-speed limit (m/s) and actuator-force
+        limit (N); ``None`` takes the geometry's values.
+    """
+
+    kp: float = 2.0e5
+    kv: float = 2.0e3
+    timeconst: float = 0.003
+    delay: float = 0.001
+    velocity_ff: bool = True
+    gravity_comp: bool = True
+    stroke: float | None = None
+    velocity_limit: float | None = None
+    force_limit: float | None = None
+
+    def __post_init__(self) -> None:
+        _check("actuator.kp", self.kp, math.isfinite(self.kp) and self.kp > 0,
+               "must be > 0 N/m")
+        _check("actuator.kv", self.kv, math.isfinite(self.kv) and self.kv >= 0,
+               "must be >= 0 N·s/m")
+        _check("actuator.timeconst", self.timeconst,
+               math.isfinite(self.timeconst) and 0 <= self.timeconst <= 1.0,
+               "must be in [0, 1] s")
+        _check("actuator.delay", self.delay,
+               math.isfinite(self.delay) and 0 <= self.delay <= 0.5, "must be in [0, 0.5] s")
+        for name, unit in (("stroke", "m"), ("velocity_limit", "m/s"), ("force_limit", "N")):
+            v = getattr(self, name)
+            if v is not None:
+                _check(f"actuator.{name}", v, math.isfinite(v) and v > 0, f"must be > 0 {unit}")
+
+
+@dataclass(frozen=True)
+class PlatformConfig:
+    """Everything that defines a simulated platform (SI units).
+
+    Attributes
+    ----------
+    geometry, actuator:
+        Platform dimensions/masses and leg actuation.
+    dt:
+        Interface (control) step ΔT (s); the loop commands a pose once per ``dt``.
+    substeps:
+        MuJoCo steps per interface step; the physics ``timestep`` is ``dt / substeps``.
+    eq_solref, eq_solimp:
+        MuJoCo solver parameters of the six tip-to-plate ``connect`` constraints. The default
+        ``solref`` of 0.02 s is far too soft for a closed chain: ``(0.002, 1)`` keeps the gap
+        at a few µm (MuJoCo clamps the time constant to at least 2·timestep).
+    integrator:
+        MuJoCo integrator name (``implicitfast``, ``Euler``, ``RK4``, ``implicit``).
+    gravity:
+        Gravitational acceleration (m/s², acting along −z).
+    """
+
+    geometry: StewartGeometry = DEFAULT_GEOMETRY
+    actuator: ActuatorConfig = field(default_factory=ActuatorConfig)
+    dt: float = 1.0e-3
+    substeps: int = 1
+    eq_solref: tuple[float, float] = (0.002, 1.0)
+    eq_solimp: tuple[float, float, float] = (0.99, 0.999, 0.0001)
+    integrator: str = "implicitfast"
+    gravity: float = 9.81
+
+    def __post_init__(self) -> None:
+        _check("platform.dt", self.dt, math.isfinite(self.dt) and 1e-5 <= self.dt <= 0.02,
+               "must be in [1e-5, 0.02] s")
+        _check("platform.substeps", self.substeps,
+               isinstance(self.substeps, int) and 1 <= self.substeps <= 100,
+               "must be an integer in [1, 100]")
+        _check("platform.integrator", self.integrator,
+               self.integrator in ("implicitfast", "Euler", "RK4", "implicit"),
+               "one of implicitfast, Euler, RK4, implicit")
+        _check("platform.gravity", self.gravity,
+               math.isfinite(self.gravity) and self.gravity >= 0, "must be >= 0 m/s²")
+        if len(self.eq_solref) != 2 or len(self.eq_solimp) != 3:
+            raise ConfigError("platform.eq_solref/eq_solimp", (self.eq_solref, self.eq_solimp),
+                              "need 2 and 3 numbers")
+
+    @property
+    def timestep(self) -> float:
+        """MuJoCo physics timestep ``dt / substeps`` (s)."""
+        return self.dt / self.substeps
+
+    @property
+    def stroke(self) -> float:
+        """Total piston stroke (m), centred on the home length."""
+        return self.actuator.stroke if self.actuator.stroke is not None else \
+            self.geometry.stroke
+
+    @property
+    def velocity_limit(self) -> float:
+        """Piston-speed limit (m/s)."""
+        a = self.actuator.velocity_limit
+        return a if a is not None else self.geometry.leg_velocity_limit
+
+    @property
+    def force_limit(self) -> float:
+        """Actuator-force limit (N)."""
+        a = self.actuator.force_limit
+        return a if a is not None else self.geometry.leg_force_limit
+
+
+def predicted_delay(config: PlatformConfig, frequency: float = 1.0) -> float:
+    """Phase delay (s) of the achieved motion behind the command, from the actuator settings.
+
+    Timing convention: the pose commanded at step k is the target for the end of that step
+    (time ``t_k``) and the achieved pose is read at ``t_k``. The chain is
+
+    * the transport delay ``delay``;
+    * −``timestep``: the set-point is applied from the start of the step, one physics step
+      ahead of the time it is meant for (an ideal servo would lead by one step);
+    * MuJoCo's exact discrete first-order filter ``(1 − p)/(z − p)``, ``p = exp(−h/τ)``, when
+      ``timeconst`` τ > 0 — its delay is ``h/(1 − p) ≈ τ + h/2`` (the force uses the filter
+      state before its update, hence the extra sample);
+    * the servo ``(kp + kv·s·[ff]) / (kp + kv·s)`` (the leg mass is negligible against kp at
+      these frequencies): a lag of ``kv/kp`` without velocity feed-forward, none with it.
+
+    So at low frequency ``d ≈ delay − h + (τ + h/2 if τ > 0) + (kv/kp if not ff)``; this
+    function evaluates the phase of that chain exactly at ``frequency`` (Hz).
+    """
+    a = config.actuator
+    w = 2 * math.pi * frequency
+    h = config.timestep
+    phase = w * (a.delay - h)
+    if a.timeconst > 0:
+        z = complex(math.cos(w * h), math.sin(w * h))
+        p = math.exp(-h / a.timeconst)
+        g = (1 - p) / (z - p)
+        phase += -math.atan2(g.imag, g.real)
+    servo = complex(a.kp, (w * a.kv) if a.velocity_ff else 0.0) / complex(a.kp, w * a.kv)
+    phase += -math.atan2(servo.imag, servo.real)
+    return phase / w
+
+
+def _fmt(v: np.ndarray | list | tuple) -> str:
+    return " ".join(f"{float(x):.12g}" for x in v)
+
+
+def _quat_z_to(u: np.ndarray) -> np.ndarray:
+    """Unit quaternion (w, x, y, z) rotating the z axis onto the unit vector u."""
+    z = np.array([0.0, 0.0, 1.0])
+    axis = np.cross(z, u)
+    s = np.linalg.norm(axis)
+    c = float(np.dot(z, u))
+    if s < 1e-15:
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    ang = math.atan2(s, c)
+    axis = axis / s
+    return np.concatenate([[math.cos(ang / 2)], math.sin(ang / 2) * axis])
+
+
+@lru_cache(maxsize=16)
+def _plate_meshes(geom: StewartGeometry) -> tuple[str, str]:
+    """Convex visual meshes (MJCF <mesh> elements) of the base and of the top plate."""
+    import trimesh
+
+    def prism(radius_pts: np.ndarray, z0: float, z1: float) -> trimesh.Trimesh:
+        pts = np.concatenate([np.c_[radius_pts, np.full(len(radius_pts), z0)],
+                              np.c_[radius_pts, np.full(len(radius_pts), z1)]])
+        return trimesh.convex.convex_hull(pts)
+
+    def outline(angles: np.ndarray, r: float) -> np.ndarray:
+        # rounded triangle-ish plate through the anchors, 15 % larger than the anchor circle
+        a = np.sort(np.mod(angles, 2 * math.pi))
+        mids = a + np.diff(np.r_[a, a[0] + 2 * math.pi]) / 2
+        ring = np.sort(np.r_[a, mids])
+        rr = np.where(np.isin(ring, a), 1.15 * r, 0.95 * r)
+        return np.c_[rr * np.cos(ring), rr * np.sin(ring)]
+
+    base = prism(outline(geom.base_angles(), geom.base_radius), -0.03, 0.0)
+    plate = prism(outline(geom.top_angles(), geom.top_radius), -geom.plate_thickness, 0.0)
+
+    def mjcf(name: str, m: trimesh.Trimesh) -> str:
+        return (f'<mesh name="{name}" vertex="{_fmt(m.vertices.reshape(-1))}" '
+                f'face="{" ".join(str(int(i)) for i in m.faces.reshape(-1))}"/>')
+
+    return mjcf("base_mesh", base), mjcf("plate_mesh", plate)
+
+
+def model_xml(config: PlatformConfig, payload_xml: str | None = None,
+              world_xml: str | None = None) -> str:
+    """MJCF text of the platform (see the module docstring for the names)."""
+    g = config.geometry
+    a = config.actuator
+    b = g.base_anchors()
+    p = g.top_anchors()
+    lv = g.home_leg_vectors()
+    L = g.home_leg_lengths()
+    ts = config.timestep
+    base_mesh, plate_mesh = _plate_meshes(g)
+    leg_r = 0.02
+    legs = []
+    for i in range(6):
+        u = lv[i] / L[i]
+        q = _quat_z_to(u)
+        cyl_len = 0.55 * L[i]
+        pis_len = 0.55 * L[i]
+        legs.append(f"""
+    <body name="leg{i}_cyl" pos="{_fmt(b[i])}" quat="{_fmt(q)}">
+      <joint name="leg{i}_u1" type="hinge" axis="1 0 0"/>
+      <joint name="leg{i}_u2" type="hinge" axis="0 1 0"/>
+      <geom name="leg{i}_cyl" type="cylinder" size="{leg_r} {cyl_len / 2:.12g}"
+            pos="0 0 {cyl_len / 2:.12g}" mass="{g.cylinder_mass:.12g}" rgba="0.35 0.38 0.42 1"/>
+      <body name="leg{i}_piston">
+        <joint name="leg{i}_slide" type="slide" axis="0 0 1"/>
+        <geom name="leg{i}_piston" type="cylinder" size="{0.6 * leg_r} {pis_len / 2:.12g}"
+              pos="0 0 {L[i] - pis_len / 2:.12g}" mass="{g.piston_mass:.12g}"
+              rgba="0.75 0.77 0.8 1"/>
+        <site name="leg{i}_tip" pos="0 0 {L[i]:.12g}" size="0.006"/>
+      </body>
+    </body>""")
+    anchors = "\n".join(
+        f'      <site name="plate_anchor{i}" pos="{_fmt(p[i])}" size="0.008"/>' for i in range(6))
+    eqs = "\n".join(
+        f'    <connect name="leg{i}_connect" site1="leg{i}_tip" site2="plate_anchor{i}" '
+        f'solref="{_fmt(config.eq_solref)}" solimp="{_fmt(config.eq_solimp)}"/>'
+        for i in range(6))
+    nsample = max(2, int(math.ceil(a.delay / ts - 1e-9)) + 2) if a.delay > 0 else 0
+    delay_attr = f' delay="{a.delay:.12g}" nsample="{nsample}"' if a.delay > 0 else ""
+    tc_attr = f' timeconst="{a.timeconst:.12g}"' if a.timeconst > 0 else ""
+    acts = "\n".join(
+        f'    <position name="leg{i}" joint="leg{i}_slide" kp="{a.kp:.12g}" kv="{a.kv:.12g}"'
+        f'{tc_attr}{delay_attr}/>' for i in range(6))
+    fts_r = 0.05
+    return f"""<mujoco model="rths3d_stewart">
+  <compiler angle="radian" autolimits="true"/>
+  <option timestep="{ts:.12g}" integrator="{config.integrator}"
+          gravity="0 0 {-config.gravity:.12g}"/>
+  <visual><global offwidth="1280" offheight="960"/></visual>
+  <asset>
+    {base_mesh}
+    {plate_mesh}
+  </asset>
+  <default>
+    <geom contype="0" conaffinity="0"/>
+  </default>
+  <worldbody>
+    <light pos="0 0 3" dir="0 0 -1" directional="true"/>
+    <body name="base">
+      <geom name="base" type="mesh" mesh="base_mesh" rgba="0.25 0.27 0.3 1"/>
+    </body>
+{"".join(legs)}
+    <body name="plate" pos="0 0 {g.home_height:.12g}">
+      <freejoint name="plate_free"/>
+      <geom name="plate" type="mesh" mesh="plate_mesh" mass="{g.plate_mass:.12g}"
+            rgba="0.55 0.6 0.68 1"/>
+{anchors}
+      <geom name="fts" type="cylinder" size="{fts_r} {g.fts_height / 2:.12g}"
+            pos="0 0 {g.fts_height / 2:.12g}" mass="{g.fts_mass:.12g}" rgba="0.85 0.55 0.1 1"/>
+      <body name="fts_body">
+        <site name="fts" pos="0 0 {g.fts_height:.12g}" size="0.01"/>
+        <frame pos="0 0 {g.fts_height:.12g}">
+{payload_xml or ""}
+        </frame>
+      </body>
+    </body>
+{world_xml or ""}
+  </worldbody>
+  <equality>
+{eqs}
+  </equality>
+  <actuator>
+{acts}
+  </actuator>
+  <sensor>
+    <force name="fts_force" site="fts"/>
+    <torque name="fts_torque" site="fts"/>
+  </sensor>
+</mujoco>
+"""
+
+
+def _one_line(exc: Exception) -> str:
+    return "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())
+
+
+def build_spec(config: PlatformConfig | None = None, payload_xml: str | None = None,
+               world_xml: str | None = None):  # -> mujoco.MjSpec
+    """The platform as an editable ``mujoco.MjSpec`` (payload under ``fts_body``).
+
+    ``payload_xml``: MJCF ``<body>`` element(s), the experimental part, in the ``fts`` site
+    frame (z up at home). ``world_xml``: extra MJCF elements for the worldbody (e.g. a
+    contact surface). Raises :class:`ConfigError` naming the fragment if MuJoCo rejects it.
+    """
+    import mujoco
+
+    config = config or PlatformConfig()
+    xml = model_xml(config, payload_xml, world_xml)
+    try:
+        return mujoco.MjSpec.from_string(xml)
+    except ValueError as exc:
+        raise ConfigError("payload_xml/world_xml", None, "",
+                          message="payload_xml/world_xml: the platform MJCF with these "
+                                  "fragments is invalid: " + _one_line(exc)) from exc
+
+
+def build_model(config: PlatformConfig | None = None, payload_xml: str | None = None,
+                world_xml: str | None = None):  # -> mujoco.MjModel
+    """Compiled ``mujoco.MjModel`` of the platform (see :func:`build_spec`)."""
+    spec = build_spec(config, payload_xml, world_xml)
+    try:
+        return spec.compile()
+    except ValueError as exc:
+        raise ConfigError("payload_xml/world_xml", None, "",
+                          message="payload_xml/world_xml: the platform model does not "
+                                  "compile: " + _one_line(exc)) from exc

@@ -1,0 +1,287 @@
+"""The simulated platform: tracking, delays, FTS conventions, limits and blow-up detection."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from rths3d.errors import ConfigError, SafetyStop
+from rths3d.platform.kinematics import rotation_matrix
+from rths3d.platform.model import ActuatorConfig, PlatformConfig, build_model, predicted_delay
+from rths3d.platform.sim import PlatformBatch, PlatformSim
+from rths3d.platform.tracking import sine_trajectory, track, tracking_figures
+
+MASS = 2.0  # kg, payload of the FTS tests
+COM = 0.05  # m, payload centre of mass above the FTS site
+PAYLOAD = (f'<body name="mass"><geom type="box" size="0.05 0.05 {COM}" pos="0 0 {COM}" '
+           f'mass="{MASS}"/></body>')
+
+
+@pytest.fixture(scope="module")
+def heave_runs():
+    """1 Hz, 5 mm heave with and without velocity feed-forward (ramped in over 0.5 s)."""
+    out = {}
+    for ff in (True, False):
+        cfg = PlatformConfig(actuator=ActuatorConfig(velocity_ff=ff))
+        rec = track(sine_trajectory("z", 0.005, 1.0, 2.5, ramp=0.5), cfg)
+        out[ff] = (cfg, rec, tracking_figures(rec, "z", 1.0, cfg))
+    return out
+
+
+@pytest.fixture(scope="module")
+def payload_sim():
+    return PlatformSim(PlatformConfig(), payload_xml=PAYLOAD)
+
+
+@pytest.mark.parametrize("ff", [True, False])
+def test_heave_delay_matches_actuator_prediction(heave_runs, ff):
+    """1 Hz 5 mm heave: achieved delay within 0.5 ms of the settings' prediction."""
+    cfg, rec, fig = heave_runs[ff]
+    assert rec.meta["status"] == "ok"
+    assert fig.delay == pytest.approx(predicted_delay(cfg, 1.0), abs=0.5e-3)
+    # and the two cases really differ by the servo lag kv/kp = 10 ms
+    expected_lag = 0.0 if ff else cfg.actuator.kv / cfg.actuator.kp
+    assert fig.delay - predicted_delay(PlatformConfig(actuator=ActuatorConfig(
+        velocity_ff=True)), 1.0) == pytest.approx(expected_lag, abs=0.5e-3)
+    assert fig.amplitude_ratio == pytest.approx(1.0, abs=0.01)
+
+
+@pytest.mark.parametrize("ff", [True, False])
+def test_heave_parasitic_motion_and_equality_gap(heave_runs, ff):
+    """Heave moves the other five DOF < 1 µm / 1 µrad; the leg-plate gap stays < 5 µm."""
+    _, rec, fig = heave_runs[ff]
+    assert fig.parasitic_translation < 1e-6
+    assert fig.parasitic_rotation < 1e-6
+    assert fig.max_eq_gap < 5e-6
+    assert np.max(np.abs(rec.columns["pose_meas.z"])) > 4.9e-3  # it did move
+
+
+@pytest.mark.parametrize("dof,amp", [("x", 0.005), ("y", 0.005), ("rx", 0.01), ("ry", 0.01),
+                                     ("rz", 0.01)])
+def test_other_dofs_track(dof, amp):
+    """Surge, sway, roll, pitch and yaw follow a 1 Hz sine with the predicted delay."""
+    cfg = PlatformConfig()
+    rec = track(sine_trajectory(dof, amp, 1.0, 2.0, ramp=0.5), cfg)
+    fig = tracking_figures(rec, dof, 1.0, cfg)
+    assert fig.delay == pytest.approx(predicted_delay(cfg), abs=0.5e-3)
+    assert fig.amplitude_ratio == pytest.approx(1.0, abs=0.01)
+    assert fig.nrms_error < 0.05
+    # coupling into the other DOF stays small against the motion itself
+    assert fig.parasitic_translation < 1e-3 * 0.005 / 0.01 * (amp if dof[0] == "r" else 0.01)
+    assert fig.parasitic_rotation < 5e-3 * (amp / 0.005 * 0.01 if dof[0] != "r" else amp)
+
+
+def test_record_columns_and_leg_commands():
+    """The tracking record holds the schema columns; leg commands are the IK of the poses."""
+    from rths3d.platform.kinematics import inverse_kinematics
+
+    cfg = PlatformConfig()
+    poses = sine_trajectory("z", 0.002, 2.0, 0.3, ramp=0.1)
+    rec = track(poses, cfg)
+    for c in ("pose_cmd.z", "pose_meas.rx", "z_cmd.z", "z_meas.z", "f_meas.z", "leg_cmd.0",
+              "leg_len.5", "leg_force.3", "fts.fz", "fts.tz", "eq_gap"):
+        assert c in rec.columns
+    L = np.column_stack([rec.columns[f"leg_cmd.{i}"] for i in range(6)])
+    assert np.allclose(L, inverse_kinematics(cfg.geometry, poses), atol=1e-15)
+    assert rec.t[0] == pytest.approx(cfg.dt) and rec.dt == pytest.approx(cfg.dt)
+
+
+def test_gravity_compensation_removes_sag():
+    """Gravity compensation holds home to < 5 µm; without it the legs sag by f/kp."""
+    on = PlatformSim(PlatformConfig(), payload_xml=PAYLOAD, settle=0.3)
+    off = PlatformSim(PlatformConfig(actuator=ActuatorConfig(gravity_comp=False)),
+                      payload_xml=PAYLOAD, settle=0.3)
+    assert abs(on.pose[2]) < 5e-6
+    sag = np.array(off.leg_lengths) - off.config.geometry.home_leg_lengths()
+    # static leg force / kp is the sag of an uncompensated position servo
+    assert np.allclose(sag, -off.static.leg_forces / off.config.actuator.kp, rtol=0.05)
+    assert np.all(sag < -1e-4)
+
+
+def test_static_leg_forces_balance_weight():
+    """With (nearly) massless legs each leg carries M·g / (6·u_z) by symmetry (statics)."""
+    from rths3d.platform.geometry import StewartGeometry
+
+    geom = StewartGeometry(cylinder_mass=1e-6, piston_mass=1e-6)
+    sim = PlatformSim(PlatformConfig(geometry=geom), payload_xml=PAYLOAD)
+    uz = geom.home_leg_vectors()[:, 2] / geom.home_leg_lengths()
+    M = geom.plate_mass + geom.fts_mass + MASS
+    assert np.allclose(sim.static.leg_forces, M * 9.81 / (6 * uz), rtol=1e-5)
+    assert sim.static.payload_mass == pytest.approx(MASS)
+    assert np.allclose(sim.static.preload, [0, 0, MASS * 9.81, 0, 0, 0], atol=1e-9)
+
+
+def test_fts_static_payload_reads_mg(payload_sim):
+    """A static payload of mass m reads +m·g along the sensor z axis; f_meas is zero."""
+    sim = payload_sim
+    sim.reset()
+    for _ in range(200):
+        sim.step(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    fx, fy, fz, tx, ty, tz = sim.wrench
+    assert fz == pytest.approx(MASS * 9.81, rel=1e-6)
+    assert max(abs(fx), abs(fy), abs(tx), abs(ty), abs(tz)) < 1e-6
+    assert np.max(np.abs(sim.interface_wrench)) < 1e-4
+
+
+def test_fts_tilted_plate_reads_rotated_weight(payload_sim):
+    """Tilted by (rx, ry), the sensor reads Rᵀ(0,0,mg) and the torque of the offset mass."""
+    sim = payload_sim
+    sim.reset()
+    target = np.array([0.0, 0.0, 0.0, 0.04, -0.03, 0.0])
+    n_ramp, n_hold = 1000, 800
+    for k in range(n_ramp + n_hold):
+        s = min(1.0, (k + 1) / n_ramp)
+        q = target * (0.5 - 0.5 * math.cos(math.pi * s))
+        sim.step(*map(float, q))
+    pose = np.array(sim.pose)
+    assert np.allclose(pose, target, atol=1e-4)  # gravity compensation is exact at home only
+    R = rotation_matrix(*pose[3:])
+    W = np.array([0.0, 0.0, MASS * 9.81])
+    f_site = R.T @ W
+    t_site = np.cross([0.0, 0.0, COM], f_site)
+    w = np.array(sim.wrench)
+    assert np.allclose(w[:3], f_site, atol=2e-3 * MASS * 9.81)
+    assert np.allclose(w[3:], t_site, atol=2e-3 * MASS * 9.81 * COM)
+    assert abs(f_site[0]) > 0.5  # the tilt is visible in the reading
+    # interface wrench: world axes, the weight itself removed, the torque change remains
+    iw = np.array(sim.interface_wrench)
+    assert np.allclose(iw[:3], 0.0, atol=2e-3 * MASS * 9.81)
+    assert np.allclose(iw[3:], np.cross(R @ [0, 0, COM], W), atol=2e-3 * MASS * 9.81 * COM)
+
+
+def test_interface_force_sign_restoring():
+    """A spring pressed by the rising plate gives f_meas,z = +k·Δz (restoring force)."""
+    k = 2.0e4  # N/m
+    # a free mass on a slide spring under a world-fixed stop: the plate pushes it up
+    payload = (f'<body name="spec"><joint name="spec_z" type="slide" axis="0 0 1" '
+               f'stiffness="{k}" damping="200"/><geom type="sphere" size="0.02" mass="0.5" '
+               f'pos="0 0 0.02"/></body>')
+    sim = PlatformSim(PlatformConfig(), payload_xml=payload, settle=0.5)
+    # hold the specimen mass against the world so that the spring is compressed by z
+    eq = sim.model.jnt_qposadr[sim.model.joint("spec_z").id]
+    q_eq = -0.5 * 9.81 / k  # static equilibrium of the specimen spring under its weight
+    assert sim.data.qpos[eq] == pytest.approx(q_eq, rel=1e-3)
+    n = 1500
+    for j in range(n):
+        s = min(1.0, (j + 1) / 1000)
+        z = 0.002 * (0.5 - 0.5 * math.cos(math.pi * s))
+        sim.data.qpos[eq] = q_eq - z  # specimen mass held fixed in the world
+        sim.data.qvel[sim.model.jnt_dofadr[sim.model.joint("spec_z").id]] = 0.0
+        sim.step(0.0, 0.0, z, 0.0, 0.0, 0.0)
+    fz = sim.interface_wrench[2]
+    z = sim.pose[2]
+    assert z == pytest.approx(0.002, abs=5e-5)  # servo compliance under the 40 N load
+    assert fz == pytest.approx(k * 0.002, rel=0.02)
+    assert fz > 0
+
+
+def test_unreachable_pose_stops_before_step():
+    """A pose beyond the stroke stops before stepping, naming leg, quantity, value and limit."""
+    sim = PlatformSim(PlatformConfig())
+    with pytest.raises(SafetyStop) as info:
+        sim.step(0.0, 0.0, 0.0003, 0.0, 0.0, 0.0)
+        for k in range(2, 400):
+            sim.step(0.0, 0.0, 0.0003 * k, 0.0, 0.0, 0.0)
+    e = info.value
+    assert e.quantity == "leg 0 commanded stroke"
+    assert e.value > e.limit == pytest.approx(0.05)
+    assert "leg 0 commanded stroke" in str(e) and "0.05" in str(e)
+    # the plate never went beyond the stroke
+    assert max(abs(v) for v in np.array(sim.leg_lengths) - sim.config.geometry.home_leg_lengths()) \
+        <= 0.05
+
+
+def test_velocity_limit_stops_at_the_step():
+    """A command step faster than the leg speed limit stops with 'leg i commanded velocity'."""
+    sim = PlatformSim(PlatformConfig())
+    sim.step(0.0, 0.0, 0.0001, 0.0, 0.0, 0.0)
+    with pytest.raises(SafetyStop, match=r"leg \d commanded velocity = .* m/s exceeds the limit "
+                                         r"0\.3 m/s") as info:
+        sim.step(0.0, 0.0, 0.002, 0.0, 0.0, 0.0)
+    assert info.value.t == pytest.approx(0.001)
+
+
+def test_force_limit_stops_with_measured_force():
+    """A leg force above the limit stops the test naming 'leg i force', value and limit."""
+    cfg = PlatformConfig(actuator=ActuatorConfig(force_limit=60.0))
+    sim = PlatformSim(cfg, payload_xml=PAYLOAD)
+    assert np.all(np.abs(sim.static.leg_forces) < 60.0)
+    with pytest.raises(SafetyStop, match=r"leg \d force = .* N exceeds the limit 60 N") as info:
+        for k in range(2000):  # a fast upward sine needs more than the static force
+            sim.step(0.0, 0.0, 0.004 * math.sin(2 * math.pi * 8 * (k + 1) * 1e-3), 0, 0, 0)
+    assert abs(info.value.value) > 60.0
+
+
+def test_blow_up_detected_not_silently_reset():
+    """An unstable servo (kp 1e7 at 1 ms) is caught as divergence, never a silent reset."""
+    cfg = PlatformConfig(actuator=ActuatorConfig(kp=1e7, kv=1e3, velocity_ff=False,
+                                                 force_limit=1e12, velocity_limit=1e9,
+                                                 stroke=1e3))
+    sim = PlatformSim(cfg)
+    with pytest.raises(SafetyStop, match="divergence") as info:
+        for k in range(1000):
+            sim.step(0.0, 0.0, 1e-5 * k, 0.0, 0.0, 0.0)
+    assert info.value.t > 0.0
+    assert "bad acceleration" in str(info.value)
+
+
+def test_track_keeps_partial_record_on_stop():
+    """track() returns the samples up to a stop with status 'stopped' and the reason."""
+    poses = np.zeros((2000, 6))
+    poses[:, 2] = np.linspace(0, 0.2, 2000)  # 0.1 m/s; leaves the stroke near z = 60 mm
+    rec = track(poses, PlatformConfig())
+    assert rec.meta["status"] == "stopped"
+    assert "commanded stroke" in rec.meta["reason"]
+    assert 100 <= rec.n < 2000
+    assert rec.columns["pose_meas.z"][-1] > 0.04
+
+
+def test_bad_config_and_fragment_are_named():
+    """Bad actuator values and invalid MJCF fragments raise ConfigError naming the field."""
+    with pytest.raises(ConfigError, match="actuator.kp"):
+        ActuatorConfig(kp=-1.0)
+    with pytest.raises(ConfigError, match="platform.substeps"):
+        PlatformConfig(substeps=0)
+    with pytest.raises(ConfigError, match="payload_xml"):
+        build_model(PlatformConfig(), payload_xml="<body><geom type='nonsense'/></body>")
+
+
+def test_model_names_and_substeps():
+    """Stable names exist; substeps divide the interface step."""
+    m = build_model(PlatformConfig(substeps=4))
+    assert m.opt.timestep == pytest.approx(0.25e-3)
+    for name in ("plate", "fts_body"):
+        m.body(name)
+    m.site("fts")
+    m.sensor("fts_force")
+    m.sensor("fts_torque")
+    for i in range(6):
+        m.joint(f"leg{i}_slide")
+        m.actuator(f"leg{i}")
+    assert m.neq == 6
+
+
+def test_batch_matches_single_and_freezes_stopped_test():
+    """PlatformBatch reproduces PlatformSim; a test at its limit is frozen, others go on."""
+    cfg = PlatformConfig()
+    poses = sine_trajectory("z", 0.004, 2.0, 0.4, ramp=0.1)
+    single = track(poses, cfg)
+    batch = PlatformBatch(cfg, nsim=3, nthread=1)
+    out = np.zeros((poses.shape[0], 3, 6))
+    f = np.zeros((poses.shape[0], 3, 6))
+    for k, q in enumerate(poses):
+        cmd = np.tile(q, (3, 1))
+        cmd[1, 2] = q[2] + 0.3 * min(1.0, k / 300)  # test 1 leaves the stroke
+        batch.step(cmd)
+        out[k] = batch.pose
+        f[k] = batch.interface_wrench
+    z = single.columns["pose_meas.z"]
+    assert np.allclose(out[:, 0, 2], z, atol=1e-12)
+    assert np.allclose(out[:, 2, 2], z, atol=1e-12)
+    assert np.allclose(f[:, 0, 2], single.columns["f_meas.z"], atol=1e-9)
+    assert list(batch.stopped) == [False, True, False]
+    assert "leg" in batch.reasons[1] and "test 1" in batch.reasons[1]
+    assert batch.reasons[0] == "" and np.isnan(batch.stop_time[0])
+    assert 0.0 < batch.stop_time[1] < 0.4
