@@ -109,4 +109,7 @@ def _table(rec, result: dict, path: Path) -> None:
         for k, v in result.items():
             sym, unit = _LABELS.get(k, (k, ""))
             table.add_row(k, sym, unit, _fmt(v))
-    Console().print(table)
+    console = Console()
+    if not console.is_terminal:  # piped: do not squeeze the DOF columns into 80 characters
+        console = Console(width=220)
+    console.print(table)
