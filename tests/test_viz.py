@@ -231,10 +231,12 @@ def test_scene_follows_pose_legs_and_spring(viewer, record):
                                    DEFAULT_GEOMETRY.home_position() + pose[:3], atol=1e-6)
         q = np.asarray(sc.plate_frame.wxyz)
         R = rotation_matrix(*pose[3:])
-        np.testing.assert_allclose(quat_rotate(q, [1.0, 0, 0]), R[:, 0], atol=1e-6)
+        for e in np.eye(3):
+            np.testing.assert_allclose(quat_rotate(q, e), R @ e, atol=1e-6)
         for k in range(6):
-            axis = quat_rotate(np.asarray(sc.pistons[k].wxyz), [0, 0, 1.0])
-            end = np.asarray(sc.pistons[k].position) + 0.5 * sc.cylinder_length * axis
+            axis = quat_rotate(np.asarray(sc.pistons.batched_wxyzs[k], float), [0, 0, 1.0])
+            end = np.asarray(sc.pistons.batched_positions[k], float) \
+                + 0.5 * sc.cylinder_length * axis
             length = np.linalg.norm(end - DEFAULT_GEOMETRY.base_anchors()[k])
             assert length == pytest.approx(record.columns[f"leg_len.{k}"][i], abs=1e-6)
         spring = sc.spring.scale[2]

@@ -417,6 +417,8 @@ class Viewer:
 
     def _update_wrench_scale(self, data: np.ndarray, i: int) -> None:
         """Arrow scale from the largest |force| / |torque| seen (whole record in replay)."""
+        if not self.live and self._wrench_max != (0.0, 0.0):
+            return
         idx = self.buffer.index
         fc = [idx[f"f_meas.{d}"] for d in DOFS[:3] if f"f_meas.{d}" in idx]
         tc = [idx[f"f_meas.{d}"] for d in DOFS[3:] if f"f_meas.{d}" in idx]

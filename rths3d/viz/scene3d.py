@@ -26,7 +26,7 @@ from .kinematics import leg_segments, quat_from_matrix, rotation_matrix
 from .stream import group_indices
 
 BASE_COLOR = (90, 96, 110)
-CYLINDER_COLOR = (60, 70, 90)
+CYLINDER_COLOR = (35, 42, 60)
 PISTON_COLOR = (200, 205, 215)
 PLATE_COLOR = (70, 130, 180)
 FTS_COLOR = (230, 160, 40)
@@ -153,12 +153,21 @@ class PlatformScene:
         for i, b in enumerate(self.base):
             scene.add_icosphere(f"/platform/base_joint_{i}", radius=0.022, color=(40, 40, 40),
                                 position=tuple(b))
-        self.cylinders = [scene.add_cylinder(f"/platform/leg_{i}/cylinder", radius=0.024,
-                                             height=self.cylinder_length, color=CYLINDER_COLOR)
-                          for i in range(6)]
-        self.pistons = [scene.add_cylinder(f"/platform/leg_{i}/piston", radius=0.013,
-                                           height=self.cylinder_length, color=PISTON_COLOR)
-                        for i in range(6)]
+        # Legs as two batched meshes (one message per update for all six cylinders, one for
+        # all six pistons).
+        c = self.cylinder_length
+        cyl_mesh = trimesh.creation.cylinder(radius=0.024, height=c, sections=20)
+        pis_mesh = trimesh.creation.cylinder(radius=0.013, height=c, sections=16)
+        home_tips = self.top + self.home
+        cyl, piston, quats, _ = leg_segments(self.base, home_tips, c)
+        self.cylinders = scene.add_batched_meshes_simple(
+            "/platform/leg_cylinders", cyl_mesh.vertices, cyl_mesh.faces,
+            batched_wxyzs=quats, batched_positions=cyl, batched_colors=CYLINDER_COLOR,
+            lod="off")
+        self.pistons = scene.add_batched_meshes_simple(
+            "/platform/leg_pistons", pis_mesh.vertices, pis_mesh.faces,
+            batched_wxyzs=quats, batched_positions=piston, batched_colors=PISTON_COLOR,
+            lod="off")
         # The plate frame: plate, sensor and specimen are its children, so one transform
         # per update moves them all.
         self.plate_frame = scene.add_frame("/platform/top", show_axes=False,
@@ -221,17 +230,21 @@ class PlatformScene:
                                     anchor="bottom-left", position=(0.16, -0.15, z + 0.02))
 
     def _add_ghost(self, ndof: int) -> None:
+        import trimesh
+
         scene = self.server.scene
         x0 = -(self.geometry.base_radius + 0.45)
         self.ghost_x = x0
         self.ghost_spacing = 0.16
         scene.add_box("/numerical/ground", dimensions=(0.22, 0.22, 0.02), color=GHOST_COLOR,
                       opacity=0.35, position=(x0, 0.0, 0.0))
-        self.ghost_masses = [
-            scene.add_box(f"/numerical/mass_{i}", dimensions=(0.16, 0.16, 0.06),
-                          color=GHOST_COLOR, opacity=0.45,
-                          position=(x0, 0.0, self._ghost_z(i, 0.0)))
-            for i in range(ndof)]
+        box = trimesh.creation.box(extents=(0.16, 0.16, 0.06))
+        self._ghost_pos = np.array([[x0, 0.0, self._ghost_z(i, 0.0)] for i in range(ndof)])
+        self.ghost_masses = scene.add_batched_meshes_simple(
+            "/numerical/masses", box.vertices, box.faces,
+            batched_wxyzs=np.tile([1.0, 0.0, 0.0, 0.0], (ndof, 1)),
+            batched_positions=self._ghost_pos, batched_colors=GHOST_COLOR, opacity=0.45,
+            lod="off")
         self._ghost_lines = np.zeros((ndof, 2, 3), dtype=np.float32)
         self._update_ghost_lines([0.0] * ndof)
         self.ghost_springs = scene.add_line_segments(
@@ -288,11 +301,10 @@ class PlatformScene:
             rec = home_len + k * (row[self._leg_cols] - home_len)
             unit = (tips - self.base) / lengths[:, None]
             piston = self.base + unit * (rec - 0.5 * self.cylinder_length)[:, None]
-        for i in range(6):
-            self.cylinders[i].position = cyl[i]
-            self.cylinders[i].wxyz = quats[i]
-            self.pistons[i].position = piston[i]
-            self.pistons[i].wxyz = quats[i]
+        self.cylinders.batched_positions = cyl
+        self.cylinders.batched_wxyzs = quats
+        self.pistons.batched_positions = piston
+        self.pistons.batched_wxyzs = quats
         if self.model_frame is not None:
             mp = row[self._model_pose_cols] * k
             self.model_frame.position = self.home + mp[:3]
@@ -318,7 +330,8 @@ class PlatformScene:
             self.torque_arrow.points = self._arrow_pts.copy()
         xs = [row[c] if c >= 0 else 0.0 for c in self._num_cols]
         for i, x in enumerate(xs):
-            self.ghost_masses[i].position = (self.ghost_x, 0.0, self._ghost_z(i, x))
+            self._ghost_pos[i, 2] = self._ghost_z(i, x)
+        self.ghost_masses.batched_positions = self._ghost_pos.copy()
         self._update_ghost_lines(xs)
         self.ghost_springs.points = self._ghost_lines.copy()
 
