@@ -1,0 +1,110 @@
+"""The MuJoCo specimen with a prescribed mount (ideal / LTI transfer), K tests batched.
+
+The mount joints (one per interface DOF) carry a huge armature and are driven every physics
+step by the generalised force that makes semi-implicit Euler land exactly on the mount's
+set-point: a = ((q* − q)/h − q̇)/h, so the achieved interface motion is the piecewise-linear
+path from z'_n to z'_{n+1}. The specimen feels the mount's motion through its joints and the
+FTS site measures the wrench, exactly as on the platform. After the last physics step of an
+interface step the forward dynamics are recomputed (``stage = acc``) so the reported wrench
+belongs to the new state, not to the start of the last substep.
+
+The measured restoring force F'_m (paper F_m) is the sensor wrench rotated to world axes,
+minus its value at rest (the static preload).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import mujoco
+import mujoco.batch
+import numpy as np
+
+from ..scene import ExperimentConfig
+from .mjcf import MOUNT_ARMATURE, specimen_model_xml
+
+_ORDER = ("x", "y", "z", "rz", "ry", "rx")
+
+
+class MujocoSpecimen:
+    """K MuJoCo specimens stepped together through ``mujoco.batch.Batch``.
+
+    ``cfgs``: one :class:`ExperimentConfig` per test (or one for all).
+    """
+
+    def __init__(self, cfgs: ExperimentConfig | Sequence[ExperimentConfig], dofs: tuple[str, ...],
+                 dt: float, K: int = 1, nthread: int = 0):
+        if isinstance(cfgs, ExperimentConfig):
+            cfgs = [cfgs] * K
+        self.K = len(cfgs)
+        self.dofs = tuple(dofs)
+        self.n_if = len(dofs)
+        self.dt = float(dt)
+        self.substeps = cfgs[0].substeps
+        h = self.dt / self.substeps
+        self.h = h
+        xmls = [specimen_model_xml(c, self.dofs, h) for c in cfgs]
+        self.models = [mujoco.MjModel.from_xml_string(x) for x in dict.fromkeys(xmls)]
+        lookup = {x: self.models[i] for i, x in enumerate(dict.fromkeys(xmls))}
+        self.model = self.models[0]
+        nthread = nthread or (2 if self.K >= 8 else 1)
+        self.batch = mujoco.batch.Batch(self.model, self.K, nthread=nthread)
+        if len(self.models) > 1:
+            self.batch.set_models([lookup[x] for x in xmls])
+        order = [d for d in _ORDER if d in self.dofs]
+        # column of each interface DOF among the mount joints (qpos/qvel/qfrc indices)
+        self._col = np.array([order.index(d) for d in self.dofs])
+        self._qpos = self.batch.bind("qpos")
+        self._qvel = self.batch.bind("qvel")
+        self._qfrc = self.batch.bind("qfrc_applied")
+        self._sens = self.batch.bind("sensordata")
+        self._xmat = self.batch.bind("site_xmat")
+        self._time = self.batch.bind("time")
+        self._site = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, "fts")
+        self._is_rot = np.array([d.startswith("r") for d in self.dofs])
+        self._widx = np.array([("x", "y", "z", "rx", "ry", "rz").index(d) for d in self.dofs])
+        self.f = np.zeros((self.K, self.n_if))
+        self.wrench = np.zeros((self.K, 6))
+        self.reset()
+
+    def reset(self) -> None:
+        """All tests at rest, preload measured."""
+        self.batch.reset()
+        self._qfrc[:] = 0.0
+        self.batch.forward()
+        self.preload = self._world_wrench().copy()
+        self.f[:] = 0.0
+
+    def _world_wrench(self) -> np.ndarray:
+        R = self._xmat[:, self._site].reshape(self.K, 3, 3)
+        s = self._sens
+        fw = np.einsum("kij,kj->ki", R, s[:, 0:3])
+        tw = np.einsum("kij,kj->ki", R, s[:, 3:6])
+        return np.concatenate([fw, tw], axis=1)
+
+    def get_state(self) -> tuple[np.ndarray, ...]:
+        """Copy of (qpos, qvel, time)."""
+        return (self._qpos.copy(), self._qvel.copy(), self._time.copy())
+
+    def set_state(self, s: tuple[np.ndarray, ...]) -> None:
+        """Restore a state from :meth:`get_state`."""
+        self._qpos[:], self._qvel[:], self._time[:] = s
+
+    def advance(self, z0: np.ndarray, z1: np.ndarray) -> np.ndarray:
+        """Drive the mount from ``z0`` to ``z1`` (K, n_if) linearly over ΔT; return F'_m."""
+        ns, h = self.substeps, self.h
+        cols = self._col
+        inertia = MOUNT_ARMATURE
+        for j in range(ns):
+            target = z0 + (z1 - z0) * ((j + 1) / ns)
+            q = self._qpos[:, cols]
+            v = self._qvel[:, cols]
+            a = ((target - q) / h - v) / h
+            self._qfrc[:, cols] = inertia * a
+            if j == ns - 1:
+                self.batch.step(stage=mujoco.mjtStage.mjSTAGE_ACC)
+            else:
+                self.batch.step()
+        self.wrench[:] = self._world_wrench() - self.preload
+        self.f[:] = self.wrench[:, self._widx]
+        return self.f

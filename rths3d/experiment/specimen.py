@@ -1,0 +1,99 @@
+"""Vectorised numpy model of the 1-D experimental parts (paper Figs. 4 and 5).
+
+The paper's own specimen model: a rigid mass m_EXP on a spring k_EXP (damper d_EXP) whose
+base is the platform's force-torque sensor, moving at the achieved interface displacement
+z'; contact with the world-fixed surface h_0 above the mass is a penalty spring-damper
+(k_c, d_c) acting only in compression. Displacements from static equilibrium (gravity only
+preloads), z up, K tests as arrays. The measured restoring force (the force the mount
+exerts on the specimen, paper F_m) is
+
+    F_m = k_EXP (z' − x) + d_EXP (ż' − ẋ)
+
+Integration over one interface step with the mount moving linearly from z'_n to z'_{n+1}:
+``euler`` (semi-implicit Euler with ``substeps`` substeps, as MuJoCo's Euler integrator) or
+``rk4`` (classical Runge–Kutta, for reference solutions).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class Specimen1D:
+    """K one-DOF specimens stepped together.
+
+    Parameters (scalars or (K,) arrays, SI): ``m`` kg, ``k`` N/m, ``d`` N·s/m, ``h0`` m
+    (``inf``: no contact, the linear part), ``k_contact`` N/m, ``d_contact`` N·s/m.
+    """
+
+    n_if = 1
+
+    def __init__(self, K: int, m, k, d=0.0, h0=np.inf, k_contact=1e5, d_contact=0.0, *,
+                 dt: float = 1e-3, substeps: int = 4, method: str = "euler"):
+        b = lambda v: np.broadcast_to(np.asarray(v, float), (K,)).copy()  # noqa: E731
+        self.K = K
+        self.m, self.k, self.d, self.h0 = b(m), b(k), b(d), b(h0)
+        self.kc, self.dc = b(k_contact), b(d_contact)
+        self.dt = float(dt)
+        self.substeps = int(substeps)
+        self.method = method
+        self.x = np.zeros(K)
+        self.v = np.zeros(K)
+        self.f = np.zeros((K, 1))
+        self.f_contact = np.zeros(K)
+        self._inv_m = 1.0 / self.m
+        self._zm_prev = np.zeros(K)
+        self._tmp = np.zeros(K)
+
+    def reset(self) -> None:
+        """Rest at static equilibrium."""
+        self.x[:] = 0.0
+        self.v[:] = 0.0
+        self.f[:] = 0.0
+        self.f_contact[:] = 0.0
+        self._zm_prev[:] = 0.0
+
+    def get_state(self) -> np.ndarray:
+        """Copy of (x, v, previous mount position), shape (3, K)."""
+        return np.stack([self.x, self.v, self._zm_prev])
+
+    def set_state(self, s: np.ndarray) -> None:
+        """Restore a state from :meth:`get_state`."""
+        self.x[:], self.v[:], self._zm_prev[:] = s[0], s[1], s[2]
+
+    def _accel(self, zm, vm, x, v):
+        fc = self.kc * (x - self.h0) + self.dc * v
+        fc = np.where(x > self.h0, np.maximum(fc, 0.0), 0.0)
+        return (self.k * (zm - x) + self.d * (vm - v) - fc) * self._inv_m
+
+    def advance(self, z0: np.ndarray, z1: np.ndarray) -> np.ndarray:
+        """Move the mount linearly from ``z0`` to ``z1`` (K, 1) over ΔT; return F_m (K, 1)
+        at the end of the step (N)."""
+        a0 = z0[:, 0]
+        a1 = z1[:, 0]
+        ns = self.substeps
+        h = self.dt / ns
+        vm = (a1 - a0) / self.dt
+        x, v = self.x, self.v
+        if self.method == "euler":
+            dz = (a1 - a0) / ns
+            for j in range(ns):
+                acc = self._accel(a0 + j * dz, vm, x, v)
+                v += acc * h
+                x += v * h
+        else:
+            for j in range(ns):
+                zs = a0 + (a1 - a0) * (j / ns)
+                zh = a0 + (a1 - a0) * ((j + 0.5) / ns)
+                ze = a0 + (a1 - a0) * ((j + 1.0) / ns)
+                k1x, k1v = v, self._accel(zs, vm, x, v)
+                k2x, k2v = v + 0.5 * h * k1v, self._accel(zh, vm, x + 0.5 * h * k1x,
+                                                          v + 0.5 * h * k1v)
+                k3x, k3v = v + 0.5 * h * k2v, self._accel(zh, vm, x + 0.5 * h * k2x,
+                                                          v + 0.5 * h * k2v)
+                k4x, k4v = v + h * k3v, self._accel(ze, vm, x + h * k3x, v + h * k3v)
+                x += h / 6.0 * (k1x + 2 * k2x + 2 * k3x + k4x)
+                v += h / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v)
+        self._zm_prev[:] = a1
+        self.f[:, 0] = self.k * (a1 - x) + self.d * (vm - v)
+        return self.f

@@ -1,0 +1,423 @@
+"""The vRTHS co-simulation loop: K tests stepped together at the interface rate ΔT.
+
+Per step n (paper Fig. 1): the numerical substructure advances t_n → t_{n+1} with the
+measured force F'_m(t_n) held over the step and outputs the command z_{n+1} = Γᵀ x_{n+1};
+the transfer system moves the experimental part towards it during the next ΔT and returns
+the achieved z'_{n+1} and the measured force F'_m(t_{n+1}); safety limits are checked. With
+the ideal transfer system the only error left is this partitioned exchange (force held
+over a step), which converges to the reference at first order in ΔT.
+
+Safety limits (stroke, command velocity, FTS range, divergence) stop a test as a real bench
+would: the test's record ends at the last safe sample, ``status = "stopped"`` and ``reason``
+says which limit and when (:class:`~rths3d.errors.SafetyStop`); the other tests of a batch
+go on. Every test writes a :class:`~rths3d.record.RecordBuffer` (``buffers``) that a live
+viewer may read from another thread; :class:`LoopControl` gives pause/stop and real-time
+pacing without per-step callbacks.
+
+Public API: :func:`run` (one test), :func:`run_batch` (many parameter sets, K at once),
+:class:`RunResult`. See docs/loop.md.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .errors import ConfigError, SafetyStop
+from .record import DOFS, Record, RecordBuffer
+from .scene import Scene, apply_overrides, scene_from_dict
+
+__all__ = ["LoopControl", "RunResult", "build_numerical", "run", "run_batch", "scene_to_dict",
+           "scene_with"]
+
+
+@dataclass
+class RunResult:
+    """Outcome of one test: its record, status and speed.
+
+    ``rtf``: simulated seconds per wall second of the loop that ran this test (for a batch,
+    per test; the aggregate is ``K·rtf``). ``out``: file written, if any.
+    """
+
+    record: Record
+    status: str
+    reason: str
+    rtf: float
+    wall: float
+    params: dict[str, Any] = field(default_factory=dict)
+    out: str | None = None
+    measures: dict[str, float] = field(default_factory=dict)
+
+
+class LoopControl:
+    """Pause / stop and real-time pacing of a running loop (checked every ``every`` steps).
+
+    Thread-safe: a viewer calls :meth:`pause`, :meth:`resume` or :meth:`stop` from its own
+    thread. ``realtime=True`` sleeps so that simulated time does not run ahead of wall time.
+    """
+
+    def __init__(self, realtime: bool = False, every: int = 20):
+        self.realtime = realtime
+        self.every = int(every)
+        self._run = threading.Event()
+        self._run.set()
+        self._stop = threading.Event()
+
+    def pause(self) -> None:
+        self._run.clear()
+
+    def resume(self) -> None:
+        self._run.set()
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._run.set()
+
+    @property
+    def stopped(self) -> bool:
+        return self._stop.is_set()
+
+    def wait(self) -> None:
+        """Block while paused."""
+        self._run.wait()
+
+
+# ---------------------------------------------------------------------------- scenes
+def scene_to_dict(scene: Scene) -> dict[str, Any]:
+    """The raw TOML-shaped mapping of a scene (inverse of ``scene_from_dict``)."""
+    out: dict[str, Any] = {"name": scene.name, "dofs": list(scene.dofs), "dt": scene.dt,
+                           "duration": scene.duration}
+    nm = scene.numerical
+    if nm.n == 1:
+        out["numerical"] = {"m": nm.M[0][0], "c": nm.C[0][0], "k": nm.K[0][0],
+                            "gamma": [list(r) for r in nm.gamma],
+                            "integrator": nm.integrator}
+    else:
+        out["numerical"] = {"M": [list(r) for r in nm.M], "C": [list(r) for r in nm.C],
+                            "K": [list(r) for r in nm.K], "gamma": [list(r) for r in nm.gamma],
+                            "integrator": nm.integrator}
+    for sec in ("experiment", "excitation", "transfer", "sensor", "safety"):
+        d = asdict(getattr(scene, sec))
+        out[sec] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in d.items()
+                    if not (isinstance(v, float) and math.isnan(v))}
+    return out
+
+
+def scene_with(scene: Scene, overrides: Mapping[str, Any] | Sequence[str]) -> Scene:
+    """A validated copy of ``scene`` with dotted-key overrides (e.g. ``{"numerical.k": 5e3}``)."""
+    if not overrides:
+        return scene
+    raw = scene_to_dict(scene)
+    nm = raw["numerical"]
+    items = overrides.items() if isinstance(overrides, Mapping) else \
+        [tuple(s.split("=", 1)) for s in overrides]
+    for key, _ in items:
+        # single-DOF scenes accept both m/M, c/C, k/K
+        base, _, leaf = str(key).partition(".")
+        if base == "numerical" and leaf in ("M", "C", "K") and leaf.lower() in nm:
+            nm.pop(leaf.lower())
+        if base == "numerical" and leaf in ("m", "c", "k") and leaf.upper() in nm:
+            nm.pop(leaf.upper())
+    raw = apply_overrides(raw, overrides)
+    return scene_from_dict(raw, name=scene.name, source=scene.source)
+
+
+# ---------------------------------------------------------------------------- builders
+def build_numerical(scenes: Sequence[Scene], method: str | None = None):
+    """The :class:`~rths3d.numerical.LinearSubstructure` of K scenes (their loads included)."""
+    from .numerical import LinearSubstructure, load_history
+
+    base = scenes[0]
+    t = np.arange(base.n_steps + 1) * base.dt
+    M = np.array([s.numerical.M for s in scenes])
+    C = np.array([s.numerical.C for s in scenes])
+    K = np.array([s.numerical.K for s in scenes])
+    p = np.stack([load_history(s.excitation, M[i], C[i], K[i], t, s.experiment.h0)
+                  for i, s in enumerate(scenes)])
+    return LinearSubstructure(M, C, K, np.array(base.numerical.gamma), p, base.dt,
+                              method or base.numerical.integrator)
+
+
+def _versions() -> dict[str, str]:
+    from importlib.metadata import version
+
+    out = {}
+    for pkg in ("rths3d", "mujoco", "numpy", "scipy"):
+        try:
+            out[pkg] = version(pkg)
+        except Exception:
+            out[pkg] = "unknown"
+    return out
+
+
+def _meta(scene: Scene, num, k: int, transfer_meta: dict) -> dict[str, Any]:
+    from .experiment.mjcf import interface_matrices
+    from .numerical import coupled_fastest_eigenfrequency, fastest_eigenfrequency
+
+    e = scene.experiment
+    k_exp, m_exp = interface_matrices(e, scene.dofs)
+    M, K = num.M[k], num.Kmat[k]
+    return {
+        "scene": scene.name, "params": scene.params(), "transfer": scene.transfer.kind,
+        "dt": scene.dt, "dofs": list(scene.dofs), "versions": _versions(),
+        "numerical": num.meta(k),
+        "experiment": {"kind": e.kind, "m_exp": e.m, "k_exp": k_exp, "m_exp_matrix": m_exp,
+                       "d_exp": e.d, "h0": e.h0 if e.kind != "linear" else None,
+                       "k_contact": e.k_contact, "d_contact": e.d_contact},
+        "omega_num_max": fastest_eigenfrequency(M, K),
+        "omega_dyn_max": coupled_fastest_eigenfrequency(M, K, num.gamma, m_exp, k_exp),
+        "transfer_meta": transfer_meta,
+        "status": "ok", "reason": "",
+    }
+
+
+def _columns(dofs: Sequence[str], n: int, stewart: bool) -> list[str]:
+    cols = ["t"]
+    for sig in ("z_cmd", "z_meas", "f_meas", "f_ext", "z_ref"):
+        cols += [f"{sig}.{d}" for d in dofs]
+    cols += [f"x_num.{i}" for i in range(n)] + [f"x_ref.{i}" for i in range(n)]
+    if stewart:
+        cols += [f"pose_cmd.{d}" for d in DOFS] + [f"pose_meas.{d}" for d in DOFS]
+    return cols
+
+
+# ---------------------------------------------------------------------------- the loop
+def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
+               control: LoopControl | None, buffers_out: list | None,
+               progress: bool, specimen: str) -> list[RunResult]:
+    from .transfer import build_transfer
+
+    base = scenes[0]
+    K = len(scenes)
+    N = base.n_steps
+    dt = base.dt
+    nd = len(base.dofs)
+    num = build_numerical(scenes)
+    transfer = build_transfer(base, K, [s.experiment for s in scenes], nthread=nthread,
+                              specimen=specimen)
+    stewart = base.transfer.kind == "stewart"
+    cols = _columns(base.dofs, num.n, stewart)
+    ci = {c: i for i, c in enumerate(cols)}
+    data = np.zeros((N + 1, K, len(cols)))
+    buffers = []
+    for k in range(K):
+        b = RecordBuffer(cols, 1, _meta(scenes[k], num, k, getattr(transfer, "meta", {})))
+        b.data = data[:, k, :]
+        b.n = 1
+        buffers.append(b)
+    if buffers_out is not None:
+        buffers_out.extend(buffers)
+    # column slices (contiguous per signal group)
+    s_zc = slice(ci[f"z_cmd.{base.dofs[0]}"], ci[f"z_cmd.{base.dofs[0]}"] + nd)
+    s_zm = slice(s_zc.start + nd, s_zc.start + 2 * nd)
+    s_fm = slice(s_zc.start + 2 * nd, s_zc.start + 3 * nd)
+    s_fe = slice(s_zc.start + 3 * nd, s_zc.start + 4 * nd)
+    s_x = slice(ci["x_num.0"], ci["x_num.0"] + num.n)
+    if stewart:
+        s_pc = slice(ci["pose_cmd.x"], ci["pose_cmd.x"] + 6)
+        s_pm = slice(ci["pose_meas.x"], ci["pose_meas.x"] + 6)
+    data[:, :, 0] = (np.arange(N + 1) * dt)[:, None]
+    # f_ext per interface DOF: Γᵀ p (the external load seen at the interface)
+    data[:, :, s_fe] = np.einsum("ktn,nd->tkd", num.p, num.gamma)
+    # safety limits per interface DOF
+    saf = base.safety
+    is_rot = np.array([d.startswith("r") for d in base.dofs])
+    lim_z = np.where(is_rot, saf.rotation, saf.stroke)
+    lim_v = np.where(is_rot, np.inf, saf.velocity)
+    lim_f = np.where(is_rot, saf.torque, saf.force)
+    lim_x = saf.divergence
+    stop_row = np.full(K, N, dtype=int)
+    reasons = [""] * K
+    active = np.ones(K, dtype=bool)
+    transfer.reset()
+    f = np.zeros((K, nd))
+    t0 = time.perf_counter()
+    every = control.every if control is not None else 0
+    pbar = None
+    if progress:
+        from tqdm import tqdm
+
+        pbar = tqdm(total=N, desc=f"{base.transfer.kind} ×{K}", unit="step", mininterval=0.5)
+
+    def halt(k: int, stop: SafetyStop, row: int) -> None:
+        if active[k]:
+            active[k] = False
+            stop_row[k] = row
+            reasons[k] = stop.reason
+            num.P[k] = 0.0
+            num.s[k] = 0.0
+
+    n = 0
+    for n in range(N):
+        num.step(n, f)
+        z = num.z
+        zd = num.zdot
+        az = np.abs(z)
+        if (az > lim_z).any() or (np.abs(zd) > lim_v).any() or \
+                not (np.abs(num.x) <= lim_x).all():
+            for k in np.flatnonzero(active):
+                tk = (n + 1) * dt
+                xk = num.x[k]
+                if not np.all(np.isfinite(xk)) or np.abs(xk).max() > lim_x:
+                    halt(k, SafetyStop("divergence: numerical displacement |x|",
+                                       float(np.nanmax(np.abs(xk))), lim_x, tk, k, "m"), n)
+                    continue
+                for j, d in enumerate(base.dofs):
+                    u = "rad" if is_rot[j] else "m"
+                    if az[k, j] > lim_z[j]:
+                        halt(k, SafetyStop(f"stroke: commanded {d}", z[k, j], lim_z[j], tk, k,
+                                           u), n)
+                        break
+                    if abs(zd[k, j]) > lim_v[j]:
+                        halt(k, SafetyStop(f"velocity: commanded {d} rate", zd[k, j],
+                                           lim_v[j], tk, k, "m/s"), n)
+                        break
+            if not active.any():
+                break
+        try:
+            transfer.step(z, zd)
+        except SafetyStop as stop:  # a single platform raises; a batch flags
+            halt(0, SafetyStop(stop.quantity, stop.value, stop.limit, (n + 1) * dt, 0,
+                               stop.unit), n)
+            break
+        if transfer.stopped.any():
+            for k in np.flatnonzero(transfer.stopped & active):
+                halt(int(k), SafetyStop(transfer.reasons[k] or "transfer system", math.nan,
+                                        math.nan, (n + 1) * dt, int(k)), n)
+                reasons[k] = transfer.reasons[k]
+        f = transfer.f_meas
+        if (np.abs(f) > lim_f).any():
+            for k in np.flatnonzero(active):
+                for j, d in enumerate(base.dofs):
+                    if abs(f[k, j]) > lim_f[j]:
+                        what = "torque" if is_rot[j] else "force"
+                        halt(k, SafetyStop(f"FTS range: measured {what} {d}", f[k, j],
+                                           lim_f[j], (n + 1) * dt, k,
+                                           "N·m" if is_rot[j] else "N"), n + 1)
+                        break
+            if not active.any():
+                break
+        row = data[n + 1]
+        row[:, s_zc] = z
+        row[:, s_zm] = transfer.z_meas
+        row[:, s_fm] = f
+        row[:, s_x] = num.x
+        if stewart:
+            row[:, s_pc] = transfer.pose_cmd
+            row[:, s_pm] = transfer.pose_meas
+        if every and (n % every == 0):
+            for b in buffers:
+                b.n = n + 2
+            if control.stopped:
+                for k in np.flatnonzero(active):
+                    halt(k, SafetyStop("user stop", 0.0, 0.0, (n + 1) * dt, k), n + 1)
+                    reasons[k] = f"stopped by the user at t = {(n + 1) * dt:.3f} s"
+                break
+            control.wait()
+            if control.realtime:
+                ahead = (n + 1) * dt - (time.perf_counter() - t0)
+                if ahead > 0:
+                    time.sleep(ahead)
+        if pbar is not None and n % 500 == 0:
+            pbar.update(min(500, N - pbar.n))
+    wall = time.perf_counter() - t0
+    if pbar is not None:
+        pbar.close()
+    for b in buffers:
+        b.n = N + 1
+    steps_done = n + 1
+    rtf = steps_done * dt / wall if wall > 0 else math.inf
+    if reference:
+        from .reference import reference_solution
+
+        ref = reference_solution(scenes, nthread=nthread)
+        s_zr = slice(s_zc.start + 4 * nd, s_zc.start + 5 * nd)
+        s_xr = slice(ci["x_ref.0"], ci["x_ref.0"] + num.n)
+        data[:, :, s_zr] = ref["z_ref"].transpose(1, 0, 2)
+        data[:, :, s_xr] = ref["x_ref"].transpose(1, 0, 2)
+    results = []
+    for k in range(K):
+        b = buffers[k]
+        b.n = int(stop_row[k]) + 1
+        if not active[k]:
+            b.meta["status"] = "stopped"
+            b.meta["reason"] = reasons[k]
+        b.meta["rtf"] = rtf
+        rec = b.to_record()
+        if not reference:
+            for d in base.dofs:
+                rec.columns.pop(f"z_ref.{d}", None)
+            for i in range(num.n):
+                rec.columns.pop(f"x_ref.{i}", None)
+        results.append(RunResult(rec, b.meta["status"], b.meta["reason"], rtf, wall,
+                                 scenes[k].params()))
+    return results
+
+
+def run(scene: Scene, transfer: str | None = None, *, reference: bool = True,
+        control: LoopControl | None = None, buffers: list | None = None,
+        progress: bool = False, specimen: str = "auto", out: str | None = None) -> RunResult:
+    """Run one test of ``scene`` (optionally with another ``transfer`` kind).
+
+    ``buffers``: a list that receives the test's :class:`RecordBuffer` as soon as the loop
+    starts (for a live viewer). ``out``: write the record (``.parquet`` or ``.csv``).
+    """
+    if transfer is not None:
+        scene = scene.with_transfer(transfer)
+    res = _run_group([scene], reference=reference, nthread=1, control=control,
+                     buffers_out=buffers, progress=progress, specimen=specimen)[0]
+    if out:
+        res.out = str(res.record.save(out))
+    return res
+
+
+def _group_key(s: Scene) -> tuple:
+    # tests stepped together must share the time grid, DOFs, transfer and (for MuJoCo
+    # specimens) the part's model; numerical parameters may differ freely
+    exp = s.experiment if (s.transfer.kind == "stewart" or s.experiment.kind == "multidof") \
+        else (s.experiment.kind, s.experiment.substeps)
+    return (s.dt, s.duration, s.dofs, s.transfer, s.sensor, s.safety, exp, s.numerical.integrator,
+            np.array(s.numerical.gamma).tobytes())
+
+
+def run_batch(scene: Scene, param_sets: Sequence[Mapping[str, Any]], transfer: str | None = None,
+              *, reference: bool = True, max_k: int = 256, nthread: int = 0,
+              progress: bool = False, specimen: str = "auto") -> list[RunResult]:
+    """Run one test per parameter set, stepping compatible tests together (K at a time).
+
+    ``param_sets``: dotted-key overrides per test, e.g. ``[{"numerical.k": 5e3,
+    "experiment.h0": 0.002}, ...]``. Tests that share the time grid, transfer system and
+    (for MuJoCo parts) the part's model are stepped together in groups of up to ``max_k``:
+    numerical substructures as arrays over tests, the Stewart platform through
+    ``PlatformBatch`` (``mujoco.batch``, ``nthread`` threads, 0 = 2), the 1-D LTI path with
+    the vectorised numpy specimen. Results come back in the order of ``param_sets``.
+    A bad parameter raises :class:`~rths3d.errors.ConfigError` naming the set's index.
+    """
+    if transfer is not None:
+        scene = scene.with_transfer(transfer)
+    scenes = []
+    for i, ps in enumerate(param_sets):
+        try:
+            scenes.append(scene_with(scene, ps))
+        except ConfigError as exc:
+            raise ConfigError(exc.field, exc.value, exc.limit,
+                              message=f"parameter set {i}: {exc}") from None
+    groups: dict[tuple, list[int]] = {}
+    for i, s in enumerate(scenes):
+        groups.setdefault(_group_key(s), []).append(i)
+    results: list[RunResult | None] = [None] * len(scenes)
+    for idx in groups.values():
+        for start in range(0, len(idx), max_k):
+            part = idx[start:start + max_k]
+            res = _run_group([scenes[i] for i in part], reference=reference, nthread=nthread,
+                             control=None, buffers_out=None, progress=progress,
+                             specimen=specimen)
+            for i, r in zip(part, res, strict=True):
+                results[i] = r
+    return results  # type: ignore[return-value]

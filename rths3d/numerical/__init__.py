@@ -1,0 +1,27 @@
+"""Numerical substructures: linear multi-DOF ``M ẍ + C ẋ + K x = p(t) − Γ F'_m``.
+
+Integrators (batched over K tests), excitations (force, support motion, ground
+acceleration) and eigen-analysis for the τ-ratios (paper eqs. 12–13). A single-DOF
+substructure is the 1×1 case of the same code. Nonlinear substructures plug in through the
+:class:`NumericalSubstructure` protocol.
+"""
+
+from .excitation import excitation_signal, load_history
+from .linear import (
+    Discretisation,
+    LinearSubstructure,
+    NumericalSubstructure,
+    discretise,
+)
+from .modal import coupled_fastest_eigenfrequency, fastest_eigenfrequency
+
+__all__ = [
+    "Discretisation",
+    "LinearSubstructure",
+    "NumericalSubstructure",
+    "coupled_fastest_eigenfrequency",
+    "discretise",
+    "excitation_signal",
+    "fastest_eigenfrequency",
+    "load_history",
+]

@@ -1,0 +1,530 @@
+"""Scenes: the frozen, validated description of one vRTHS test, loaded from TOML.
+
+A scene names the numerical substructure (``M, C, K`` and the interface map Γ), its
+excitation, the experimental part, the transfer system, the force sensor and the safety
+limits. Everything is SI (m, rad, s, kg, N, N·m). ``load_scene(path, overrides)`` reads a
+TOML file, applies ``key=value`` overrides (dotted keys, e.g. ``numerical.k=5000``) and
+returns a :class:`Scene`; every mistake raises :class:`~rths3d.errors.ConfigError` naming
+the field, the value and the limit.
+
+Single-DOF substructures may give scalars ``m, c, k`` instead of matrices ``M, C, K``.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import ConfigError
+from .record import DOFS
+
+__all__ = [
+    "ExcitationConfig",
+    "ExperimentConfig",
+    "NumericalConfig",
+    "SafetyConfig",
+    "Scene",
+    "SensorConfig",
+    "TransferConfig",
+    "apply_overrides",
+    "load_scene",
+    "scene_from_dict",
+]
+
+TRANSFER_KINDS = ("ideal", "delay", "lti", "stewart")
+EXPERIMENT_KINDS = ("contact", "linear", "multidof")
+EXCITATION_KINDS = ("none", "force", "support", "ground")
+SIGNALS = ("sine", "raised_cosine", "file", "array")
+INTEGRATORS = ("exact", "central_difference")
+COMPENSATIONS = ("none", "velocity", "polynomial")
+SENSOR_KINDS = ("ideal", "first_order")
+
+Matrix = tuple[tuple[float, ...], ...]
+
+
+def _num(field_name: str, value: Any, *, lo: float | None = None, lo_open: bool = False,
+         hi: float | None = None, unit: str = "", allow_inf: bool = False) -> float:
+    """Check that ``value`` is a real number in the given range; return it as float."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ConfigError(field_name, value, f"must be a number{(' in ' + unit) if unit else ''}")
+    v = float(value)
+    if math.isnan(v) or (math.isinf(v) and not allow_inf):
+        raise ConfigError(field_name, value, "must be finite")
+    u = f" {unit}" if unit else ""
+    if lo is not None and (v <= lo if lo_open else v < lo):
+        raise ConfigError(field_name, value, f"must be {'>' if lo_open else '>='} {lo:g}{u}")
+    if hi is not None and v > hi:
+        raise ConfigError(field_name, value, f"must be <= {hi:g}{u}")
+    return v
+
+
+def _choice(field_name: str, value: Any, choices: Sequence[str]) -> str:
+    if value not in choices:
+        raise ConfigError(field_name, value, f"must be one of {', '.join(choices)}")
+    return str(value)
+
+
+def _matrix(field_name: str, value: Any, shape: tuple[int, int] | None = None) -> Matrix:
+    try:
+        a = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError(field_name, value, "must be a matrix of numbers") from None
+    if a.ndim == 0:
+        a = a.reshape(1, 1)
+    if a.ndim != 2:
+        raise ConfigError(field_name, value, "must be a 2-D matrix (list of rows)")
+    if shape is not None and a.shape != shape:
+        raise ConfigError(field_name, value, f"must have shape {shape[0]}×{shape[1]}, "
+                          f"has {a.shape[0]}×{a.shape[1]}")
+    if not np.all(np.isfinite(a)):
+        raise ConfigError(field_name, value, "must be finite")
+    return tuple(tuple(float(x) for x in row) for row in a)
+
+
+@dataclass(frozen=True)
+class NumericalConfig:
+    """Linear numerical substructure ``M ẍ + C ẋ + K x = p(t) − Γ F'_m`` (SI).
+
+    ``M`` (kg or kg·m²), ``C`` (N·s/m), ``K`` (N/m) are n×n; ``gamma`` (Γ) is n × n_if and
+    maps the interface DOFs (``Scene.dofs``) to numerical DOFs: the commanded interface
+    displacement is ``z = Γᵀ x``. ``integrator`` is ``exact`` (exact discretisation of the
+    state space with the force held over a step, unconditionally stable) or
+    ``central_difference`` (explicit, stable for ω_max ΔT < 2).
+    """
+
+    M: Matrix
+    C: Matrix
+    K: Matrix
+    gamma: Matrix
+    integrator: str = "exact"
+
+    @property
+    def n(self) -> int:
+        """Number of numerical DOFs."""
+        return len(self.M)
+
+
+@dataclass(frozen=True)
+class ExcitationConfig:
+    """Excitation of the numerical substructure.
+
+    ``kind``: ``none``; ``force`` (p = a(t)·direction, N); ``support`` (support motion u(t):
+    p = k_s u + c_s u̇ with k_s = K·1, c_s = C·1, the paper's suspension cosine z_d);
+    ``ground`` (ground acceleration ü_g: p = −M·1·ü_g). The signal a(t) / u(t) / ü_g(t) is
+    ``sine`` (amplitude·sin(2π f t + phase)), ``raised_cosine`` (the paper's z_d =
+    peak/2·(1 − cos 2π f_d t), peak = ``amplitude`` or h_0 + ``overtravel`` Δz_d), ``file``
+    (CSV with columns ``t`` and ``column``) or ``array`` (``times``, ``values``); recorded
+    signals are interpolated linearly and scaled by ``scale``.
+    """
+
+    kind: str = "none"
+    signal: str = "sine"
+    amplitude: float = 0.0
+    frequency: float = 0.0
+    phase: float = 0.0
+    overtravel: float = float("nan")
+    file: str = ""
+    column: str = "value"
+    scale: float = 1.0
+    times: tuple[float, ...] = ()
+    values: tuple[float, ...] = ()
+    direction: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class ExperimentConfig:
+    """Experimental part mounted on the force-torque sensor (paper Figs. 4 and 5).
+
+    ``contact``: mass ``m`` (kg) on a spring ``k`` (N/m, damper ``d`` N·s/m) above the FTS,
+    hitting a world-fixed surface ``h0`` (m) above its static equilibrium; penalty contact
+    with stiffness ``k_contact`` (N/m) and damping ``d_contact`` (N·s/m).
+    ``linear``: the same part without the surface (Fig. 5).
+    ``multidof``: a rigid bar (mass ``m``, pitch inertia ``inertia`` kg·m²) on a heave
+    spring ``k`` and a pitch spring ``k_rot`` (N·m/rad) whose end (``arm`` m from the axis)
+    hits the surface: interface DOFs z and ry.
+    ``substeps``: physics steps per interface step for the specimen models.
+    """
+
+    kind: str = "contact"
+    m: float = 0.38
+    k: float = 8650.0
+    d: float = 0.0
+    h0: float = 0.005
+    k_contact: float = 1.0e5
+    d_contact: float = 40.0
+    inertia: float = 2.0e-3
+    k_rot: float = 400.0
+    d_rot: float = 0.0
+    arm: float = 0.1
+    substeps: int = 4
+
+
+@dataclass(frozen=True)
+class TransferConfig:
+    """Transfer system between command z and achieved z'.
+
+    ``kind``: ``ideal`` (z' = z), ``delay`` (z'(t) = z(t − ``delay``)), ``lti`` (continuous
+    transfer function ``num``/``den`` in s, discretised exactly with a held input, after a
+    pure ``delay``; empty num/den loads ``assets/platform_heave_tf.json`` or a 50 Hz
+    second-order lag) or ``stewart`` (the MuJoCo Stewart platform). ``compensation``
+    ``velocity`` adds ``comp_time``·ż to the command; ``polynomial`` extrapolates the command
+    ``comp_time`` ahead with a polynomial of ``poly_order`` through the last samples.
+    ``kp``, ``kv`` (N/m, N·s/m), ``timeconst`` (s), ``velocity_ff`` and ``substeps`` tune the
+    Stewart platform's leg servos.
+    """
+
+    kind: str = "ideal"
+    delay: float = 0.0
+    num: tuple[float, ...] = ()
+    den: tuple[float, ...] = ()
+    compensation: str = "none"
+    comp_time: float = 0.0
+    poly_order: int = 2
+    kp: float = 2.0e5
+    kv: float = 2.0e3
+    timeconst: float = 0.0
+    velocity_ff: bool = True
+    substeps: int = 1
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    """Force-torque sensor model between F_m and F'_m.
+
+    ``kind`` ``ideal`` or ``first_order`` (time constant ``time_constant`` s); then
+    F'_m = ``gain``·F + ``offset`` + white noise of std ``noise_std`` (N), delayed by
+    ``delay`` (s). ``seed`` seeds the noise.
+    """
+
+    kind: str = "ideal"
+    time_constant: float = 0.0
+    noise_std: float = 0.0
+    gain: float = 1.0
+    offset: float = 0.0
+    delay: float = 0.0
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class SafetyLimits:
+    """Bench limits: the test stops (SafetyStop) when one is exceeded.
+
+    ``stroke`` (m) and ``rotation`` (rad) bound |z|; ``velocity`` (m/s) bounds |ż| of the
+    command; ``force`` (N) and ``torque`` (N·m) bound |F'_m| (the FTS range);
+    ``divergence`` (m) bounds any numerical displacement.
+    """
+
+    stroke: float = 0.04
+    rotation: float = 0.2
+    velocity: float = 0.5
+    force: float = 1000.0
+    torque: float = 100.0
+    divergence: float = 1.0
+
+
+SafetyConfig = SafetyLimits
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A complete vRTHS test description (SI units). See the module docstring."""
+
+    name: str
+    dofs: tuple[str, ...]
+    numerical: NumericalConfig
+    experiment: ExperimentConfig
+    excitation: ExcitationConfig = field(default_factory=ExcitationConfig)
+    transfer: TransferConfig = field(default_factory=TransferConfig)
+    sensor: SensorConfig = field(default_factory=SensorConfig)
+    safety: SafetyLimits = field(default_factory=SafetyLimits)
+    dt: float = 1.0e-3
+    duration: float = 10.0
+    source: str = ""
+
+    @property
+    def n_steps(self) -> int:
+        """Number of interface steps (samples = n_steps + 1)."""
+        return int(round(self.duration / self.dt))
+
+    def params(self) -> dict[str, Any]:
+        """Flat dict of all scalar parameters, keyed by dotted field names."""
+        out: dict[str, Any] = {"dt": self.dt, "duration": self.duration}
+        for sec in ("numerical", "experiment", "excitation", "transfer", "sensor", "safety"):
+            for k, v in asdict(getattr(self, sec)).items():
+                out[f"{sec}.{k}"] = v
+        return out
+
+    def with_transfer(self, kind: str) -> Scene:
+        """The same scene with another transfer system."""
+        _choice("transfer.kind", kind, TRANSFER_KINDS)
+        return replace(self, transfer=replace(self.transfer, kind=kind))
+
+
+# ---------------------------------------------------------------------------- loading
+def _section(raw: Mapping[str, Any], name: str, cls: type, *, required: bool = False,
+             rename: Mapping[str, str] | None = None) -> dict[str, Any]:
+    sec = raw.get(name)
+    if sec is None:
+        if required:
+            raise ConfigError(name, None, "section is required")
+        return {}
+    if not isinstance(sec, Mapping):
+        raise ConfigError(name, sec, "must be a table")
+    known = {f.name for f in fields(cls)} | set(rename or {})
+    for key in sec:
+        if key not in known:
+            raise ConfigError(f"{name}.{key}", sec[key],
+                              f"unknown field (known: {', '.join(sorted(known))})")
+    return dict(sec)
+
+
+def _numerical(raw: Mapping[str, Any], n_if: int, dofs: tuple[str, ...]) -> NumericalConfig:
+    sec = _section(raw, "numerical", NumericalConfig, required=True,
+                   rename={"m": "M", "c": "C", "k": "K"})
+    mats = {}
+    for big, small in (("M", "m"), ("C", "c"), ("K", "k")):
+        if big in sec and small in sec:
+            raise ConfigError(f"numerical.{small}", sec[small], f"give {big} or {small}, not both")
+        val = sec.get(big, sec.get(small))
+        if val is None:
+            if big == "C":
+                val = 0.0
+            else:
+                raise ConfigError(f"numerical.{small if n_if == 1 else big}", None,
+                                  "required (mass matrix M / stiffness matrix K)")
+        mats[big] = val
+    M = np.array(_matrix("numerical.M", mats["M"]))
+    n = M.shape[0]
+    if M.shape != (n, n):
+        raise ConfigError("numerical.M", mats["M"], "must be square")
+    C = np.array(_matrix("numerical.C", mats["C"])) if np.ndim(mats["C"]) else \
+        np.eye(n) * float(mats["C"]) if n == 1 else np.zeros((n, n))
+    if np.ndim(mats["C"]) == 0 and n > 1 and float(mats["C"]) != 0.0:
+        raise ConfigError("numerical.C", mats["C"], f"must be a {n}×{n} matrix")
+    C = np.array(_matrix("numerical.C", C, (n, n)))
+    K = np.array(_matrix("numerical.K", mats["K"], (n, n)))
+    label = "m" if n == 1 and "m" in sec else "M"
+    if n == 1 and M[0, 0] <= 0:
+        raise ConfigError(f"numerical.{label}", float(M[0, 0]), "mass must be > 0 kg")
+    for name, A, strict in (("M", M, True), ("K", K, False), ("C", C, False)):
+        if not np.allclose(A, A.T, rtol=1e-10, atol=1e-12):
+            raise ConfigError(f"numerical.{name}", A.tolist(), "must be symmetric")
+        ev = np.linalg.eigvalsh(A)
+        if (strict and ev.min() <= 0) or (not strict and ev.min() < -1e-9 * max(1.0, ev.max())):
+            lab = label if name == "M" else name
+            what = ("positive definite (masses > 0 kg)" if strict
+                    else "positive semi-definite (>= 0)")
+            raise ConfigError(f"numerical.{lab}", A.tolist() if n > 1 else float(A[0, 0]),
+                              f"must be {what}")
+    if "gamma" in sec:
+        G = _matrix("numerical.gamma", sec["gamma"], (n, n_if))
+    else:
+        if n < n_if:
+            raise ConfigError("numerical.gamma", None,
+                              f"required: {n} numerical DOFs cannot default to {n_if} "
+                              f"interface DOFs {list(dofs)}")
+        G = tuple(tuple(1.0 if i == j else 0.0 for j in range(n_if)) for i in range(n))
+    integ = _choice("numerical.integrator", sec.get("integrator", "exact"), INTEGRATORS)
+    return NumericalConfig(M=_matrix("M", M), C=_matrix("C", C), K=_matrix("K", K), gamma=G,
+                           integrator=integ)
+
+
+def _build(cls: type, name: str, sec: Mapping[str, Any], checks: Mapping[str, dict]) -> Any:
+    kwargs: dict[str, Any] = {}
+    defaults = cls()
+    for f in fields(cls):
+        if f.name not in sec:
+            continue
+        v = sec[f.name]
+        d = getattr(defaults, f.name)
+        fname = f"{name}.{f.name}"
+        if isinstance(d, str):
+            if not isinstance(v, str):
+                raise ConfigError(fname, v, "must be a string")
+        elif isinstance(d, bool):
+            if not isinstance(v, bool):
+                raise ConfigError(fname, v, "must be true or false")
+        elif isinstance(d, int):
+            if isinstance(v, bool) or not isinstance(v, int):
+                raise ConfigError(fname, v, "must be an integer")
+        elif isinstance(d, float):
+            v = _num(fname, v, allow_inf=True, **checks.get(f.name, {}))
+        elif isinstance(d, tuple):
+            if not isinstance(v, list | tuple):
+                raise ConfigError(fname, v, "must be a list of numbers")
+            v = tuple(_num(f"{fname}[{i}]", x) for i, x in enumerate(v))
+        kwargs[f.name] = v
+    return cls(**kwargs)
+
+
+def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str = "") -> Scene:
+    """Validate a raw (TOML-shaped) mapping and build a :class:`Scene`."""
+    top = {"name", "dofs", "dt", "duration", "numerical", "experiment", "excitation",
+           "transfer", "sensor", "safety"}
+    for key in raw:
+        if key not in top:
+            raise ConfigError(key, raw[key], f"unknown field (known: {', '.join(sorted(top))})")
+    dofs = raw.get("dofs", ["z"])
+    if isinstance(dofs, str):
+        dofs = [dofs]
+    if not isinstance(dofs, list | tuple) or not dofs or any(d not in DOFS for d in dofs) \
+            or len(set(dofs)) != len(dofs):
+        raise ConfigError("dofs", dofs, f"must be a non-empty list of distinct DOFs from "
+                          f"{', '.join(DOFS)}")
+    dofs = tuple(d for d in DOFS if d in dofs)
+    dt = _num("dt", raw.get("dt", 1e-3), lo=1e-6, hi=0.01, unit="s")
+    duration = _num("duration", raw.get("duration", 10.0), lo=10 * dt, hi=3600.0, unit="s")
+    num = _numerical(raw, len(dofs), dofs)
+    exp_sec = _section(raw, "experiment", ExperimentConfig, required=True)
+    if "kind" not in exp_sec:
+        raise ConfigError("experiment.kind", None,
+                          f"required: one of {', '.join(EXPERIMENT_KINDS)}")
+    _choice("experiment.kind", exp_sec["kind"], EXPERIMENT_KINDS)
+    pos = {"lo": 0.0, "lo_open": True}
+    nonneg = {"lo": 0.0}
+    exp = _build(ExperimentConfig, "experiment", exp_sec, {
+        "m": {**pos, "unit": "kg"}, "k": {**pos, "unit": "N/m"}, "d": {**nonneg, "unit": "N·s/m"},
+        "h0": {**pos, "unit": "m"}, "k_contact": {**pos, "unit": "N/m"},
+        "d_contact": {**nonneg, "unit": "N·s/m"}, "inertia": {**pos, "unit": "kg·m²"},
+        "k_rot": {**pos, "unit": "N·m/rad"}, "d_rot": nonneg, "arm": {**pos, "unit": "m"}})
+    if exp.substeps < 1 or exp.substeps > 64:
+        raise ConfigError("experiment.substeps", exp.substeps, "must be in 1…64")
+    need = ("z", "ry") if exp.kind == "multidof" else ("z",)
+    if tuple(dofs) != need:
+        raise ConfigError("dofs", list(dofs), f"the {exp.kind} experiment has interface DOFs "
+                          f"{list(need)}")
+    exc_sec = _section(raw, "excitation", ExcitationConfig)
+    exc = _build(ExcitationConfig, "excitation", exc_sec, {
+        "frequency": {**nonneg, "unit": "Hz"}, "overtravel": nonneg})
+    _choice("excitation.kind", exc.kind, EXCITATION_KINDS)
+    _choice("excitation.signal", exc.signal, SIGNALS)
+    if exc.kind != "none":
+        if exc.signal in ("sine", "raised_cosine") and exc.frequency <= 0:
+            raise ConfigError("excitation.frequency", exc.frequency, "must be > 0 Hz")
+        if exc.signal == "file" and not exc.file:
+            raise ConfigError("excitation.file", None, "required for signal = 'file'")
+        if exc.signal == "array" and (len(exc.times) < 2 or len(exc.times) != len(exc.values)):
+            raise ConfigError("excitation.values", list(exc.values),
+                              "need >= 2 samples and as many times as values")
+        if exc.direction and len(exc.direction) != num.n:
+            raise ConfigError("excitation.direction", list(exc.direction),
+                              f"must have {num.n} entries (one per numerical DOF)")
+    tr_sec = _section(raw, "transfer", TransferConfig)
+    tr = _build(TransferConfig, "transfer", tr_sec, {
+        "delay": {**nonneg, "hi": 0.5, "unit": "s"},
+        "comp_time": {**nonneg, "hi": 0.1, "unit": "s"},
+        "kp": pos, "kv": nonneg, "timeconst": nonneg})
+    _choice("transfer.kind", tr.kind, TRANSFER_KINDS)
+    _choice("transfer.compensation", tr.compensation, COMPENSATIONS)
+    if tr.poly_order < 1 or tr.poly_order > 4:
+        raise ConfigError("transfer.poly_order", tr.poly_order, "must be in 1…4")
+    if bool(tr.num) != bool(tr.den):
+        raise ConfigError("transfer.den" if tr.num else "transfer.num", None,
+                          "give both num and den of the transfer function")
+    if tr.den and (len(tr.den) < len(tr.num) or tr.den[0] == 0):
+        raise ConfigError("transfer.den", list(tr.den), "must be proper (deg den >= deg num, "
+                          "leading coefficient != 0)")
+    sen = _build(SensorConfig, "sensor", _section(raw, "sensor", SensorConfig), {
+        "time_constant": nonneg, "noise_std": nonneg, "delay": {**nonneg, "hi": 0.5}})
+    _choice("sensor.kind", sen.kind, SENSOR_KINDS)
+    if sen.kind == "first_order" and sen.time_constant <= 0:
+        raise ConfigError("sensor.time_constant", sen.time_constant, "must be > 0 s for "
+                          "a first-order sensor")
+    saf = _build(SafetyLimits, "safety", _section(raw, "safety", SafetyLimits),
+                 {k: pos for k in ("stroke", "rotation", "velocity", "force", "torque",
+                                   "divergence")})
+    _check_reach(saf, exc, exp)
+    sname = raw.get("name", name)
+    if not isinstance(sname, str):
+        raise ConfigError("name", sname, "must be a string")
+    return Scene(name=sname, dofs=dofs, numerical=num, experiment=exp, excitation=exc,
+                 transfer=tr, sensor=sen, safety=saf, dt=dt, duration=duration, source=source)
+
+
+def _check_reach(saf: SafetyLimits, exc: ExcitationConfig, exp: ExperimentConfig) -> None:
+    """Reject strokes the platform cannot reach and support motions beyond the stroke."""
+    try:
+        from .platform import DEFAULT_GEOMETRY
+
+        reach = DEFAULT_GEOMETRY.stroke / 2.0
+    except Exception:  # platform not importable: fall back to its documented ±50 mm
+        reach = 0.05
+    if saf.stroke > reach:
+        raise ConfigError("safety.stroke", saf.stroke, f"unreachable: the platform's leg "
+                          f"stroke allows at most {reach:g} m of heave")
+    if exc.kind == "support" and exc.signal == "raised_cosine":
+        peak = exp.h0 + exc.overtravel if not math.isnan(exc.overtravel) else exc.amplitude
+        if peak > saf.stroke:
+            raise ConfigError("excitation.overtravel" if not math.isnan(exc.overtravel)
+                              else "excitation.amplitude", peak,
+                              f"support motion peak {peak:g} m is beyond the stroke limit "
+                              f"safety.stroke = {saf.stroke:g} m")
+    if exc.kind == "support" and exc.signal == "sine" and abs(exc.amplitude) > saf.stroke:
+        raise ConfigError("excitation.amplitude", exc.amplitude,
+                          f"support motion beyond the stroke limit safety.stroke = "
+                          f"{saf.stroke:g} m")
+
+
+def _parse_value(text: str) -> Any:
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def apply_overrides(raw: dict[str, Any], overrides: Sequence[str] | Mapping[str, Any]
+                    ) -> dict[str, Any]:
+    """Apply ``key=value`` overrides (dotted keys, TOML values) to a raw scene mapping.
+
+    A mapping of dotted key → value is accepted as well (values used as given).
+    """
+    import copy
+
+    out = copy.deepcopy(raw)
+    items: list[tuple[str, Any]] = []
+    if isinstance(overrides, Mapping):
+        items = list(overrides.items())
+    else:
+        for text in overrides:
+            key, sep, val = text.partition("=")
+            if not sep or not key.strip():
+                raise ConfigError("--set", text, "must look like key=value, e.g. numerical.k=5000")
+            items.append((key.strip(), _parse_value(val.strip())))
+    for key, val in items:
+        parts = key.split(".")
+        node = out
+        for p in parts[:-1]:
+            nxt = node.get(p)
+            if nxt is None:
+                nxt = node[p] = {}
+            if not isinstance(nxt, dict):
+                raise ConfigError(key, val, f"{p!r} is not a table")
+            node = nxt
+        node[parts[-1]] = val
+    return out
+
+
+def load_scene(path: str | Path, overrides: Sequence[str] | Mapping[str, Any] = ()) -> Scene:
+    """Read a TOML scene file, apply overrides and validate it.
+
+    A bare name (``paper_contact``) is looked up in the repository's ``scenes/`` folder.
+    """
+    p = Path(path)
+    if not p.exists() and p.suffix == "":
+        cand = Path(__file__).resolve().parents[1] / "scenes" / f"{p.name}.toml"
+        if cand.exists():
+            p = cand
+    if not p.exists():
+        raise ConfigError("scene", str(path), "file not found")
+    try:
+        raw = tomllib.loads(p.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError("scene", str(p), f"invalid TOML: {exc}") from None
+    raw = apply_overrides(raw, overrides)
+    return scene_from_dict(raw, name=p.stem, source=str(p))

@@ -1,0 +1,191 @@
+"""Actuator models (command z → achieved z'), compensation and the force-sensor model.
+
+All work on (K, n_if) arrays, K tests × interface DOFs, one call per interface step ΔT.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import scipy.signal
+
+from ..errors import ConfigError
+
+DEFAULT_TF_OMEGA = 2 * math.pi * 50.0
+"""Fallback actuator model: second-order lag, 50 Hz, ζ = 0.7 (≈ 4.5 ms delay at low f, the
+size measured on the simulated platform with velocity feed-forward)."""
+DEFAULT_TF_ZETA = 0.7
+
+
+class DelayLine:
+    """Pure delay τ (s) of a (K, n) signal sampled at ΔT, linear interpolation between
+    samples for fractional delays. Before t = τ the output is the initial value 0."""
+
+    def __init__(self, K: int, n: int, delay: float, dt: float):
+        steps = delay / dt
+        self.d0 = int(math.floor(steps + 1e-12))
+        self.frac = steps - self.d0
+        self.size = self.d0 + 2
+        self.buf = np.zeros((self.size, K, n))
+        self.i = 0
+        self.out = np.zeros((K, n))
+
+    def reset(self) -> None:
+        self.buf[:] = 0.0
+        self.i = 0
+        self.out[:] = 0.0
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        """Push u(t_n); return u(t_n − τ)."""
+        i = self.i
+        self.buf[i] = u
+        a = self.buf[(i - self.d0) % self.size]
+        if self.frac:
+            b = self.buf[(i - self.d0 - 1) % self.size]
+            np.multiply(a, 1.0 - self.frac, out=self.out)
+            self.out += self.frac * b
+        else:
+            self.out[:] = a
+        self.i = (i + 1) % self.size
+        return self.out
+
+
+def default_transfer_function() -> tuple[list[float], list[float], str]:
+    """(num, den, source) of the actuator model: ``assets/platform_heave_tf.json`` when the
+    platform's identification wrote it, else the 30 Hz second-order fallback."""
+    path = Path(__file__).resolve().parents[2] / "assets" / "platform_heave_tf.json"
+    if path.exists():
+        try:
+            data = json.loads(path.read_text())
+            return list(map(float, data["num"])), list(map(float, data["den"])), str(path.name)
+        except (KeyError, ValueError, TypeError):
+            pass
+    w, z = DEFAULT_TF_OMEGA, DEFAULT_TF_ZETA
+    return [w * w], [1.0, 2 * z * w, w * w], "second-order 50 Hz fallback"
+
+
+class LTIActuator:
+    """Continuous transfer function G(s) = num/den per interface DOF, discretised exactly
+    with the command held over ΔT (zero-order hold), stepped for K·n_if channels."""
+
+    def __init__(self, K: int, n: int, num, den, dt: float):
+        num = np.atleast_1d(np.asarray(num, float))
+        den = np.atleast_1d(np.asarray(den, float))
+        if den.size < num.size or den[0] == 0:
+            raise ConfigError("transfer.den", den.tolist(), "transfer function must be proper")
+        A, B, C, D = scipy.signal.tf2ss(num, den)
+        if A.size == 0:
+            Ad = np.zeros((0, 0))
+            Bd = np.zeros((0, 1))
+            Cd = np.zeros((1, 0))
+            Dd = np.atleast_2d(D)
+        else:
+            Ad, Bd, Cd, Dd, _ = scipy.signal.cont2discrete((A, B, C, D), dt, method="zoh")
+        self.ns = Ad.shape[0]
+        self.AdT = np.ascontiguousarray(Ad.T)
+        self.Bd = Bd[:, 0].copy()
+        self.Cd = Cd[0].copy()
+        self.Dd = float(Dd[0, 0])
+        self.x = np.zeros((K, n, self.ns))
+        self.y = np.zeros((K, n))
+        self.num, self.den = num, den
+        self.dcgain = float(num[-1] / den[-1]) if den[-1] != 0 else math.inf
+
+    def reset(self) -> None:
+        self.x[:] = 0.0
+        self.y[:] = 0.0
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        """Apply command u(t_n) (held until t_{n+1}); return the output y(t_{n+1})."""
+        x = self.x @ self.AdT
+        x += u[..., None] * self.Bd
+        self.x = x
+        np.matmul(x, self.Cd, out=self.y)
+        if self.Dd:
+            self.y += self.Dd * u
+        return self.y
+
+    def delay_estimate(self) -> float:
+        """Low-frequency group delay −dφ/dω at ω → 0 (s) of G(s) (plus half a ZOH step)."""
+        w = 1e-3
+        _, h = scipy.signal.freqs(self.num, self.den, worN=[w])
+        return float(-np.angle(h[0]) / w)
+
+
+class Compensator:
+    """Delay compensation of the command: ``velocity`` z_c = z + τ_c ż; ``polynomial``
+    z_c = p(t + τ_c) with p the polynomial of ``order`` through the last order+1 commands
+    (Lagrange extrapolation); ``none`` passes z through."""
+
+    def __init__(self, K: int, n: int, kind: str, tau: float, dt: float, order: int = 2):
+        self.kind = kind
+        self.tau = float(tau)
+        self.order = int(order)
+        self.hist = np.zeros((order + 1, K, n))
+        self.out = np.zeros((K, n))
+        # Lagrange weights for extrapolating samples at t_n, t_{n-1}, ... to t_n + τ
+        s = self.tau / dt
+        nodes = -np.arange(order + 1, dtype=float)
+        w = np.ones(order + 1)
+        for j in range(order + 1):
+            for m in range(order + 1):
+                if m != j:
+                    w[j] *= (s - nodes[m]) / (nodes[j] - nodes[m])
+        self.w = w
+
+    def reset(self) -> None:
+        self.hist[:] = 0.0
+
+    def __call__(self, z: np.ndarray, zdot: np.ndarray) -> np.ndarray:
+        if self.kind == "none" or self.tau == 0.0:
+            return z
+        if self.kind == "velocity":
+            np.multiply(zdot, self.tau, out=self.out)
+            self.out += z
+            return self.out
+        self.hist[1:] = self.hist[:-1].copy()
+        self.hist[0] = z
+        np.einsum("j,jkn->kn", self.w, self.hist, out=self.out)
+        return self.out
+
+
+class SensorModel:
+    """Force-torque sensor between F_m and F'_m: optional first-order dynamics (time constant
+    τ_f), gain, offset, white noise (std, seeded) and a delay. ``ideal`` passes F_m."""
+
+    def __init__(self, K: int, n: int, dt: float, kind: str = "ideal", time_constant: float = 0,
+                 noise_std: float = 0.0, gain: float = 1.0, offset: float = 0.0,
+                 delay: float = 0.0, seed: int = 0):
+        self.ideal = (kind == "ideal" and noise_std == 0 and gain == 1 and offset == 0
+                      and delay == 0)
+        self.alpha = 1.0 - math.exp(-dt / time_constant) if kind == "first_order" else 1.0
+        self.gain, self.offset, self.noise_std = gain, offset, noise_std
+        self.rng = np.random.default_rng(seed)
+        self.seed = seed
+        self.state = np.zeros((K, n))
+        self.out = np.zeros((K, n))
+        self.delay = DelayLine(K, n, delay, dt) if delay > 0 else None
+
+    def reset(self) -> None:
+        self.state[:] = 0.0
+        self.rng = np.random.default_rng(self.seed)
+        if self.delay is not None:
+            self.delay.reset()
+
+    def __call__(self, f: np.ndarray) -> np.ndarray:
+        if self.ideal:
+            return f
+        if self.alpha < 1.0:
+            self.state += self.alpha * (f - self.state)
+        else:
+            self.state[:] = f
+        out = self.gain * self.state + self.offset
+        if self.noise_std:
+            out += self.noise_std * self.rng.standard_normal(out.shape)
+        if self.delay is not None:
+            out = self.delay(out)
+        self.out[:] = out
+        return self.out
