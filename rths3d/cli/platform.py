@@ -1,1 +1,182 @@
-"""CLI commands: platform (registered on the shared app)."""
+"""CLI commands: ``rths3d platform track`` and ``rths3d platform identify``.
+
+Heavy imports (mujoco, matplotlib) stay inside the command functions so ``rths3d --help``
+stays fast.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import typer
+
+from ._app import app
+
+platform_app = typer.Typer(
+    name="platform",
+    help="The simulated Stewart platform: pose-tracking demo and heave identification.",
+    no_args_is_help=True,
+)
+app.add_typer(platform_app, name="platform")
+
+
+def _config(kp: float, kv: float, timeconst: float, delay: float, ff: bool, substeps: int):
+    from ..platform import ActuatorConfig, PlatformConfig
+
+    return PlatformConfig(actuator=ActuatorConfig(kp=kp, kv=kv, timeconst=timeconst,
+                                                  delay=delay, velocity_ff=ff),
+                          substeps=substeps)
+
+
+def _payload(mass: float) -> str | None:
+    if mass < 0:
+        from ..errors import ConfigError
+
+        raise ConfigError("--payload-mass", mass, "must be >= 0 kg")
+    if mass == 0:
+        return None
+    return (f'<body name="payload"><geom type="box" size="0.08 0.08 0.04" pos="0 0 0.04" '
+            f'mass="{mass:.12g}" rgba="0.2 0.5 0.8 1"/></body>')
+
+
+def plot_tracking(record, dof: str, path: Path, title: str) -> Path:
+    """PNG: commanded vs achieved motion, the tracking error and the SSP (z vs z')."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    t = record.t
+    c = record.columns[f"pose_cmd.{dof}"]
+    m = record.columns[f"pose_meas.{dof}"]
+    unit, scale = ("mrad", 1e3) if dof.startswith("r") else ("mm", 1e3)
+    fig = plt.figure(figsize=(11, 6.5))
+    gs = fig.add_gridspec(2, 2, width_ratios=(2.2, 1))
+    ax1 = fig.add_subplot(gs[0, 0])
+    ax2 = fig.add_subplot(gs[1, 0], sharex=ax1)
+    ax3 = fig.add_subplot(gs[:, 1])
+    ax1.plot(t, c * scale, label=f"commanded {dof}", lw=1.6)
+    ax1.plot(t, m * scale, "--", label=f"achieved {dof}'", lw=1.4)
+    ax1.set_ylabel(f"{dof} ({unit})")
+    ax1.legend(loc="upper right", fontsize=8)
+    ax1.set_title(title, fontsize=10)
+    ax2.plot(t, (m - c) * scale * 1e3, color="C3", lw=1.0)
+    ax2.set_ylabel(f"{dof}' − {dof} (µ{unit[1:] if unit == 'mm' else 'rad'})")
+    ax2.set_xlabel("t (s)")
+    lim = float(np.max(np.abs(c))) * scale * 1.1
+    ax3.plot(c * scale, m * scale, lw=1.0)
+    ax3.plot([-lim, lim], [-lim, lim], "k:", lw=0.8, label="perfect tracking")
+    ax3.set_xlabel(f"commanded {dof} ({unit})")
+    ax3.set_ylabel(f"achieved {dof}' ({unit})")
+    ax3.set_title("Synchronization subspace plot", fontsize=10)
+    ax3.set_aspect("equal")
+    ax3.legend(fontsize=8, loc="upper left")
+    for ax in (ax1, ax2, ax3):
+        ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+@platform_app.command()
+def track(
+    dof: str = typer.Option("z", help="DOF to move: x, y, z (m) or rx, ry, rz (rad)."),
+    amplitude: float = typer.Option(0.005, help="Sine amplitude (m or rad)."),
+    frequency: float = typer.Option(1.0, help="Sine frequency (Hz)."),
+    duration: float = typer.Option(5.0, help="Test duration (s)."),
+    ramp: float = typer.Option(0.5, help="Raised-cosine fade-in of the amplitude (s)."),
+    velocity_ff: bool = typer.Option(True, "--ff/--no-ff", help="Velocity feed-forward."),
+    kp: float = typer.Option(2.0e5, help="Leg servo position gain (N/m)."),
+    kv: float = typer.Option(2.0e3, help="Leg servo velocity gain (N·s/m)."),
+    timeconst: float = typer.Option(0.003, help="First-order set-point lag (s)."),
+    delay: float = typer.Option(0.001, help="Transport delay of the set-point (s)."),
+    substeps: int = typer.Option(1, help="Physics steps per 1 ms interface step."),
+    payload_mass: float = typer.Option(0.0, help="Box payload on the FTS (kg); 0: none."),
+    out: Path = typer.Option(Path("out/platform_track"), help="Output directory."),
+    as_json: bool = typer.Option(False, "--json", help="Print the figures as one JSON line."),
+) -> None:
+    """Track a sine in one DOF; write a plot (command vs achieved + SSP) and the record.
+
+    Prints the achieved delay (and what the actuator settings predict), the relative RMS
+    tracking error and the parasitic motion in the other five DOF.
+    """
+    from ..platform import PlatformSim, sine_trajectory, tracking_figures
+    from ..platform import track as run_track
+
+    cfg = _config(kp, kv, timeconst, delay, velocity_ff, substeps)
+    poses = sine_trajectory(dof, amplitude, frequency, duration, cfg.dt, ramp=ramp)
+    sim = PlatformSim(cfg, payload_xml=_payload(payload_mass))
+    rec = run_track(poses, sim=sim, progress=not as_json)
+    out.mkdir(parents=True, exist_ok=True)
+    rec.meta["scene"] = f"platform sine {dof}"
+    rec.meta["params"] = {"dof": dof, "amplitude": amplitude, "frequency": frequency,
+                          "duration": duration, "payload_mass": payload_mass}
+    rec_path = rec.save(out / "track.parquet")
+    if rec.meta["status"] != "ok":
+        typer.echo(f"stopped: {rec.meta['reason']} (partial record: {rec_path})", err=True)
+        raise typer.Exit(2)
+    skip = min(max(ramp, 1.0 / frequency), 0.5 * duration)
+    fig = tracking_figures(rec, dof, frequency, cfg, skip=skip)
+    rot = dof.startswith("r")
+    title = (f"{dof} sine {amplitude * 1e3:g} {'mrad' if rot else 'mm'}, {frequency:g} Hz, "
+             f"{'with' if velocity_ff else 'without'} velocity FF: delay "
+             f"{fig.delay * 1e3:.2f} ms (predicted {fig.predicted_delay * 1e3:.2f} ms), "
+             f"NRMS {100 * fig.nrms_error:.2f} %")
+    png = plot_tracking(rec, dof, out / "track.png", title)
+    figures = fig.as_dict()
+    figures.update({"plot": str(png), "record": str(rec_path)})
+    (out / "figures.json").write_text(json.dumps(figures, indent=1))
+    if as_json:
+        typer.echo(json.dumps(figures))
+        return
+    typer.echo(f"delay            {fig.delay * 1e3:8.3f} ms  (settings predict "
+               f"{fig.predicted_delay * 1e3:.3f} ms)")
+    typer.echo(f"amplitude ratio  {fig.amplitude_ratio:8.4f}")
+    typer.echo(f"NRMS error       {100 * fig.nrms_error:8.3f} %")
+    typer.echo(f"parasitic motion {fig.parasitic_translation * 1e6:8.3f} µm, "
+               f"{fig.parasitic_rotation * 1e6:.3f} µrad (other five DOF)")
+    typer.echo(f"equality gap     {fig.max_eq_gap * 1e6:8.3f} µm (max)")
+    typer.echo(f"plot             {png}")
+    typer.echo(f"record           {rec_path}")
+
+
+@platform_app.command()
+def identify(
+    out: Path = typer.Option(None, help="TF file to write (default: the repository's "
+                                        "assets/platform_heave_tf.json)."),
+    plot: Path = typer.Option(None, help="Bode plot PNG (default: beside the TF file)."),
+    n_num: int = typer.Option(1, help="Numerator order of the fitted TF."),
+    n_den: int = typer.Option(2, help="Denominator order of the fitted TF."),
+    velocity_ff: bool = typer.Option(True, "--ff/--no-ff", help="Velocity feed-forward."),
+    kp: float = typer.Option(2.0e5, help="Leg servo position gain (N/m)."),
+    kv: float = typer.Option(2.0e3, help="Leg servo velocity gain (N·s/m)."),
+    timeconst: float = typer.Option(0.003, help="First-order set-point lag (s)."),
+    delay: float = typer.Option(0.001, help="Transport delay of the set-point (s)."),
+    substeps: int = typer.Option(1, help="Physics steps per 1 ms interface step."),
+    quick: bool = typer.Option(False, help="Fewer lines and a 5 s period (0.2–50 Hz)."),
+) -> None:
+    """Identify the heave frequency response (multisine 0.1–50 Hz at five poses) and fit a
+    low-order transfer function with delay; write the TF JSON and a Bode plot."""
+    from ..errors import ConfigError
+    from ..platform.identify import DEFAULT_TF_PATH, identify_heave
+
+    if n_num < 0 or n_den < 1 or n_num > n_den:
+        raise ConfigError("--n-num/--n-den", (n_num, n_den), "need 0 <= n_num <= n_den, n_den >= 1")
+    cfg = _config(kp, kv, timeconst, delay, velocity_ff, substeps)
+    kw = {"f_min": 0.2, "period": 5.0, "n_lines": 20} if quick else {}
+    res = identify_heave(cfg, n_num=n_num, n_den=n_den, progress=True, **kw)
+    path = res.save(out or DEFAULT_TF_PATH)
+    png = res.bode_plot(plot or path.with_name(path.stem.replace("_tf", "") + "_bode.png"))
+    tf = res.tf
+    typer.echo(f"num   {list(tf.num)}")
+    typer.echo(f"den   {list(tf.den)}")
+    typer.echo(f"delay {tf.delay * 1e3:.3f} ms; phase delay at 1 Hz "
+               f"{tf.phase_delay(1.0) * 1e3:.3f} ms; fit error {100 * tf.fit_error:.2f} %")
+    for label, err in res.pose_errors.items():
+        typer.echo(f"  {label:<16s} fit error {100 * err:.2f} %")
+    typer.echo(f"TF file {path}")
+    typer.echo(f"Bode plot {png}")
