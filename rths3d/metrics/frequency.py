@@ -59,7 +59,7 @@ def fei_spectra(z_spec: np.ndarray, zp_spec: np.ndarray, freqs: np.ndarray,
         with np.errstate(divide="ignore", invalid="ignore"):
             scale = np.where(mag > 0.0, mag ** (l - 2.0), 0.0)
         num = np.einsum("ij,ij->j", zp_spec, np.conj(z_spec) * scale)
-    den = w.sum(axis=0)
+    den = np.ones(w.shape[0]) @ w
     with np.errstate(divide="ignore", invalid="ignore"):
         fei = np.where(den > 0.0, num / den, np.nan + 0j)
         f_eq = np.where(den > 0.0, freqs @ w / den, np.nan)
@@ -86,11 +86,16 @@ def fei(z, z_meas, dt: float, l: float = 2.0) -> FEIResult:
     if not (np.isfinite(l) and l > 0):
         raise ConfigError("l", l, "FEI weight exponent must be finite and > 0")
     a, b, one = as_pair(z, z_meas, ("z", "z_meas"))
-    za = one_sided_amplitude(a)[1:]
-    zb = one_sided_amplitude(b)[1:]
-    freqs = np.fft.rfftfreq(a.shape[0], step)[1:]
-    f, f_eq = fei_spectra(za, zb, freqs, float(l))
-    return _result(f, f_eq, one)
+    return fei_from_spectra(one_sided_amplitude(a), one_sided_amplitude(b), a.shape[0], step,
+                            l, one)
+
+
+def fei_from_spectra(z_spec: np.ndarray, zp_spec: np.ndarray, n: int, dt: float,
+                     l: float = 2.0, one_d: bool = False) -> FEIResult:
+    """FEI from one-sided spectra (all rfft bins of n samples, DC included, then dropped)."""
+    freqs = np.fft.rfftfreq(int(n), dt)[1:]
+    f, f_eq = fei_spectra(z_spec[1:], zp_spec[1:], freqs, float(l))
+    return _result(f, f_eq, one_d)
 
 
 def _result(f: np.ndarray, f_eq: np.ndarray, one: bool) -> FEIResult:

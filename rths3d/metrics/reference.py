@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._signals import as_pair, out, peak, ratio, rms
-from .tracking import one_sided_amplitude
+from .tracking import one_sided_amplitude, spectral_rel_error
 
 
 def _pair(z_ref, z_test):
@@ -53,6 +53,5 @@ def e_rel_ref_f(z_ref, z_test, *, magnitude_only: bool = False) -> float | np.nd
     RMS(|Z^r| − |Z'|) as printed (see :func:`rths3d.metrics.tracking.e_rel_track_f`).
     """
     r, y, one = _pair(z_ref, z_test)
-    sr, sy = one_sided_amplitude(r), one_sided_amplitude(y)
-    diff = np.abs(sr) - np.abs(sy) if magnitude_only else np.abs(sr - sy)
-    return out(ratio(rms(diff), rms(np.abs(sr))), one)
+    return out(spectral_rel_error(one_sided_amplitude(r), one_sided_amplitude(y),
+                                  magnitude_only), one)

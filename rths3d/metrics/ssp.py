@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._signals import as_pair, out
+from ._signals import as_pair, col_mean, out
 
 
 def ti_history(z, z_meas) -> np.ndarray:
@@ -39,8 +39,8 @@ def ti(z, z_meas) -> float | np.ndarray:
 
 
 def _moments(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    am = a - a.mean(axis=0)
-    bm = b - b.mean(axis=0)
+    am = a - col_mean(a)
+    bm = b - col_mean(b)
     n = a.shape[0]
     return (np.einsum("ij,ij->j", am, am) / n, np.einsum("ij,ij->j", am, bm) / n,
             np.einsum("ij,ij->j", bm, bm) / n)
@@ -149,7 +149,8 @@ def paei(z, z_meas) -> tuple[float | np.ndarray, float | np.ndarray]:
     """
     a, b, one = as_pair(z, z_meas, ("z", "z_meas"))
     sense = 0.5 * (np.einsum("ij,ij->j", b[:-1], a[1:]) - np.einsum("ij,ij->j", a[:-1], b[1:]))
-    res = [_paei_one(a[:, j], b[:, j], float(sense[j])) for j in range(a.shape[1])]
+    at, bt = np.ascontiguousarray(a.T), np.ascontiguousarray(b.T)
+    res = [_paei_one(at[j], bt[j], float(sense[j])) for j in range(a.shape[1])]
     ph = np.array([r[0] for r in res])
     am = np.array([r[1] for r in res])
     return out(ph, one), out(am, one)

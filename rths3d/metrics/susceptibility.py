@@ -235,21 +235,16 @@ def interface_loop(M, C, K, M_exp, C_exp, K_exp, gamma=None, *,
     def mods(w: float) -> np.ndarray:
         return np.sort(np.abs(_loop_eigs(np.array([w]), *args)[0]))
 
+    from scipy.optimize import brentq
+
     table = np.sort(np.abs(_loop_eigs(grid, *args)), axis=1) - 1.0
     cross, pms = [], []
     for j in range(table.shape[1]):
         sgn = np.signbit(table[:, j])
         for i in np.flatnonzero(sgn[1:] != sgn[:-1]):
-            a, b = grid[i], grid[i + 1]
-            fa = table[i, j]
-            for _ in range(60):
-                mid = math.sqrt(a * b)
-                fm = mods(mid)[j] - 1.0
-                if (fm < 0) == (fa < 0):
-                    a, fa = mid, fm
-                else:
-                    b = mid
-            wc = math.sqrt(a * b)
+            # |μ_j(ω)| − 1 changes sign in [grid[i], grid[i+1]]: Brent's method on log ω
+            wc = math.exp(brentq(lambda lw, j=j: mods(math.exp(lw))[j] - 1.0,
+                                 math.log(grid[i]), math.log(grid[i + 1]), xtol=1e-13))
             mu = _loop_eigs(np.array([wc]), *args)[0]
             mu_c = mu[np.argmin(np.abs(np.abs(mu) - 1.0))]
             # 1 + μ e^(−iωτ) = 0 ⇔ ωτ = angle(μ) − π (mod 2π): the phase left before −1

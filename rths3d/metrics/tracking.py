@@ -96,6 +96,12 @@ def e_rel_track_f(z, z_meas, *, magnitude_only: bool = False) -> float | np.ndar
     Dimensionless; NaN when Z is identically zero.
     """
     a, b, one = as_pair(z, z_meas, ("z", "z_meas"))
-    za, zb = one_sided_amplitude(a), one_sided_amplitude(b)
-    diff = np.abs(za) - np.abs(zb) if magnitude_only else np.abs(za - zb)
-    return out(ratio(rms(diff), rms(np.abs(za))), one)
+    return out(spectral_rel_error(one_sided_amplitude(a), one_sided_amplitude(b),
+                                  magnitude_only), one)
+
+
+def spectral_rel_error(spec: np.ndarray, spec_other: np.ndarray,
+                       magnitude_only: bool = False) -> np.ndarray:
+    """RMS(|S − S'|) / RMS(|S|) (or RMS(|S| − |S'|) / RMS(|S|)) over one-sided bins, per DOF."""
+    diff = np.abs(spec) - np.abs(spec_other) if magnitude_only else np.abs(spec - spec_other)
+    return ratio(rms(diff), rms(np.abs(spec)))
