@@ -285,3 +285,25 @@ def test_batch_matches_single_and_freezes_stopped_test():
     assert "leg" in batch.reasons[1] and "test 1" in batch.reasons[1]
     assert batch.reasons[0] == "" and np.isnan(batch.stop_time[0])
     assert 0.0 < batch.stop_time[1] < 0.4
+
+
+def test_batch_divergence_flags_only_the_unstable_test():
+    """A batch test with unstable gains is flagged 'divergence'; a stable one runs on."""
+    cfg = PlatformConfig(actuator=ActuatorConfig(kp=1e7, kv=1e3, velocity_ff=False,
+                                                 force_limit=1e12, velocity_limit=1e9,
+                                                 stroke=1e3))
+    batch = PlatformBatch(cfg, nsim=2, nthread=1)
+    gain = batch.batch.expand("actuator_gainprm")
+    bias = batch.batch.expand("actuator_biasprm")
+    gain[0, :6, 0] = 2e5  # test 0: the default, stable servo
+    bias[0, :6, 1] = -2e5
+    bias[0, :6, 2] = -2e3
+    batch.reset()
+    for k in range(600):
+        q = np.zeros((2, 6))
+        q[:, 2] = 1e-5 * k
+        batch.step(q)
+    assert list(batch.stopped) == [False, True]
+    assert "divergence" in batch.reasons[1] and "bad acceleration" in batch.reasons[1]
+    assert batch.pose[0, 2] == pytest.approx(1e-5 * 599, abs=3e-4)  # ramp lags ~14 ms
+    assert abs(batch.pose[0, 2]) > 1e-3

@@ -101,7 +101,6 @@ def static_state(config: PlatformConfig, model, data, ids: _Ids | None = None) -
     nv = model.nv
     jeq = []
     jp = np.zeros((3, nv))
-    jr = np.zeros((3, nv))
     for tip, anc in zip(ids.tip_site, ids.anchor_site, strict=True):
         mujoco.mj_jacSite(model, data, jp, None, tip)
         j1 = jp.copy()
@@ -120,9 +119,8 @@ def static_state(config: PlatformConfig, model, data, ids: _Ids | None = None) -
     fw = np.array([0.0, 0.0, mass * g])
     r = data.subtree_com[ids.fts_body] - data.site_xpos[ids.fts_site]
     pre = np.concatenate([fw, np.cross(r, fw)])
-    del jr
-    return StaticState(leg_forces=f, offsets=f / config.actuator.kp, preload=pre,
-                       payload_mass=mass)
+    kp = model.actuator_gainprm[ids.act, 0]  # per-model gains (a batch may expand them)
+    return StaticState(leg_forces=f, offsets=f / kp, preload=pre, payload_mass=mass)
 
 
 def _quat_to_euler(w: float, x: float, y: float, z: float) -> tuple[float, float, float]:
@@ -444,6 +442,7 @@ class PlatformBatch:
         self._sensor = self.batch.bind("sensordata")
         self._force = self.batch.bind("actuator_force")
         self._xmat = self.batch.bind("site_xmat")
+        self._time = self.batch.bind("time")
         self._mujoco = mujoco
         g = config.geometry
         self._home = g.home_leg_lengths()
@@ -484,7 +483,7 @@ class PlatformBatch:
                 arr = getattr(d, name)
                 if arr.size:
                     state_fields.setdefault(name, np.zeros((self.nsim,) + arr.shape))[k] = arr
-        self.batch.time = np.zeros(self.nsim) if hasattr(self.batch, "time") else None
+        self._time[:] = 0.0
         for name, arr in state_fields.items():
             self.batch.bind(name)[:] = arr
         self._off = offs
@@ -496,10 +495,11 @@ class PlatformBatch:
         self.reasons = [""] * self.nsim
         self.stop_time[:] = np.nan
         nset = int(round(self.settle / cfg.timestep))
-        for _ in range(nset):
-            self.batch.step()
-        self._check_status(settling=True)
+        self._t0 = nset * cfg.timestep
+        if nset:
+            self.batch.step(nstep=nset)
         self.k = 0
+        self._check_status(settling=True)
 
     @property
     def t(self) -> float:
@@ -513,11 +513,23 @@ class PlatformBatch:
             self.stop_time[k] = stop.t
 
     def _check_status(self, settling: bool = False) -> None:
-        for k in range(self.nsim):
-            msg = self.batch.error(k)
-            if msg and not self.stopped[k]:
-                self._freeze(k, SafetyStop(f"divergence ({msg.strip()}) |qacc|", math.inf,
-                                           _MAXVAL, 0.0 if settling else self.t, test=k))
+        """Flag tests whose simulation failed or diverged.
+
+        MuJoCo resets a simulation whose acceleration blows up (bad-acceleration warning)
+        and carries on from time 0; the batch does not expose the warning counters, so a
+        simulation time behind the expected one is the signature of that reset.
+        """
+        expected = self._t0 + self.k * self.config.dt
+        late = self._time < expected - 0.5 * self.config.timestep
+        status = self.batch.status
+        bad = (late | (status != 0)) & ~self.stopped
+        if bad.any():
+            for k in np.flatnonzero(bad):
+                msg = self.batch.error(int(k)).strip()
+                what = msg or "MuJoCo bad acceleration, state was reset"
+                self._freeze(int(k), SafetyStop(f"divergence ({what}) |qacc|", math.inf,
+                                                _MAXVAL, 0.0 if settling else self.t,
+                                                test=int(k)))
 
     def step(self, poses: np.ndarray) -> None:
         """Command poses (K, 6) (m, rad, relative to home) for one interface step ΔT."""
@@ -549,8 +561,10 @@ class PlatformBatch:
         # stopped tests hold their last set-point and zero velocity feed-forward
         self._ctrl[:, self.ids.act] = self._cmd
         self._Lprev[run] = L[run]
-        for _ in range(cfg.substeps):
-            self.batch.step()
+        if run.all():
+            self.batch.step(nstep=cfg.substeps)
+        elif run.any():  # frozen tests are not stepped any more
+            self.batch.step(ids=np.flatnonzero(run), nstep=cfg.substeps)
         self.k += 1
         self._check_status()
         ids = self.ids
