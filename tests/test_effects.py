@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from rths3d.diagnose.bench import G, BenchConfig, BenchModel, load_bench
+from rths3d.diagnose.bench import BenchConfig, BenchModel, G, load_bench
 from rths3d.diagnose.synth import multisine
 from rths3d.effects import REGISTRY, describe, get_effect, parse_effect_arg
 from rths3d.effects.library import delay_signal, lowpass_signal
