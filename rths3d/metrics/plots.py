@@ -50,7 +50,7 @@ def plot_ssp(record: Record, path: str | Path) -> Path:
             q = (coef[0] * gx**2 + coef[1] * gx * gy + coef[2] * gy**2 + coef[3] * gx
                  + coef[4] * gy + coef[5])
             ax.contour(gx, gy, q, levels=[0.0], colors="tab:orange", linewidths=1.0)
-        k = max(1, len(a) // 40)
+        k = max(1, len(a) // 200)  # a short arrow: the direction of travel
         i0 = int(np.argmax(np.abs(np.diff(a)) + np.abs(np.diff(b))))
         i1 = min(i0 + k, len(a) - 1)
         ax.annotate("", xy=(a[i1], b[i1]), xytext=(a[i0], b[i0]),
