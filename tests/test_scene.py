@@ -1,0 +1,81 @@
+"""Scenes: TOML loading, overrides and validation errors (field, value, limit)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from rths3d.errors import ConfigError
+from rths3d.loop import scene_to_dict, scene_with
+from rths3d.scene import load_scene, scene_from_dict
+
+SCENES = Path(__file__).resolve().parents[1] / "scenes"
+
+
+@pytest.mark.parametrize("name", ["paper_contact", "paper_linear", "multidof"])
+def test_shipped_scenes_load(name):
+    """Every shipped scene loads and validates; dofs match the experiment kind."""
+    sc = load_scene(SCENES / f"{name}.toml")
+    assert sc.name == name
+    assert sc.n_steps == round(sc.duration / sc.dt)
+    assert len(sc.numerical.gamma[0]) == len(sc.dofs)
+
+
+def test_override_changes_value_and_roundtrip():
+    """--set overrides reach the scene; scene_to_dict/scene_with round-trip exactly."""
+    sc = load_scene(SCENES / "paper_contact.toml", ["numerical.k=5000", "experiment.h0=0.002"])
+    assert sc.numerical.K[0][0] == 5000.0
+    assert sc.experiment.h0 == 0.002
+    again = scene_from_dict(scene_to_dict(sc), name=sc.name, source=sc.source)
+    assert again == sc
+    sc2 = scene_with(sc, {"numerical.m": 4.81})
+    assert sc2.numerical.M[0][0] == 4.81 and sc2.numerical.K[0][0] == 5000.0
+
+
+@pytest.mark.parametrize("override, field, limit_word", [
+    ("numerical.m=-1.0", "numerical.m", "> 0"),
+    ("experiment.m=-0.38", "experiment.m", "> 0"),
+    ("transfer.kind='magic'", "transfer.kind", "ideal"),
+    ("safety.stroke=0.2", "safety.stroke", "0.05"),
+    ("excitation.overtravel=0.06", "excitation.overtravel", "safety.stroke"),
+    ("experiment.bogus=1", "experiment.bogus", "unknown field"),
+    ("dt=0.5", "dt", "0.01"),
+])
+def test_bad_values_name_field_and_limit(override, field, limit_word):
+    """A bad value raises ConfigError whose message names the field and the limit."""
+    with pytest.raises(ConfigError) as err:
+        load_scene(SCENES / "paper_contact.toml", [override])
+    assert err.value.field == field
+    assert field in str(err.value) and limit_word in str(err.value)
+
+
+def test_missing_field_named():
+    """A missing required field (the numerical stiffness) is named."""
+    raw = scene_to_dict(load_scene(SCENES / "paper_contact.toml"))
+    del raw["numerical"]["k"]
+    with pytest.raises(ConfigError, match="numerical.k"):
+        scene_from_dict(raw)
+
+
+def test_non_symmetric_matrix_rejected():
+    """A non-symmetric stiffness matrix of a multi-DOF substructure is rejected."""
+    with pytest.raises(ConfigError, match="numerical.K.*symmetric"):
+        load_scene(SCENES / "multidof.toml", ["numerical.K=[[2e4, 1.0], [0.0, 450.0]]"])
+
+
+@pytest.mark.parametrize("args, word", [
+    (["--set", "numerical.m=-1"], "numerical.m"),
+    (["--transfer", "magic"], "--transfer"),
+    (["--set", "safety.stroke=0.3"], "safety.stroke"),
+])
+def test_cli_bad_scene_one_line_exit_2(args, word):
+    """The CLI prints one line naming the field, exits with 2 and shows no traceback."""
+    p = subprocess.run([sys.executable, "-m", "rths3d", "run", str(SCENES / "paper_contact.toml"),
+                        *args], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2
+    err = p.stderr.strip().splitlines()
+    assert len(err) == 1 and word in err[0]
+    assert "Traceback" not in p.stderr + p.stdout

@@ -1,0 +1,83 @@
+"""Transfer-system parts: delay line, LTI actuator, compensation, sensor model."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.signal
+
+from rths3d.transfer import Compensator, DelayLine, LTIActuator, SensorModel
+
+
+def test_delay_line_integer_and_fractional():
+    """A 3 ms delay shifts by 3 samples; 2.5 ms interpolates linearly between samples."""
+    u = np.arange(1.0, 11.0)
+    d = DelayLine(1, 1, 3e-3, 1e-3)
+    y = np.array([d(np.array([[v]]))[0, 0] for v in u])
+    np.testing.assert_allclose(y, np.r_[0, 0, 0, u[:-3]])
+    d = DelayLine(1, 1, 2.5e-3, 1e-3)
+    y = np.array([d(np.array([[v]]))[0, 0] for v in u])
+    np.testing.assert_allclose(y[4:], u[4:] - 2.5)
+
+
+def test_lti_matches_scipy_dlsim_and_dc_gain():
+    """The LTI actuator equals scipy's ZOH discretisation stepped with dlsim, DC gain 1."""
+    w, z = 2 * math.pi * 40, 0.6
+    num, den = [w * w], [1, 2 * z * w, w * w]
+    dt = 1e-3
+    a = LTIActuator(2, 1, num, den, dt)
+    rng = np.random.default_rng(1)
+    u = rng.standard_normal((300, 2))
+    y = np.array([a(u[n][:, None])[:, 0].copy() for n in range(300)])
+    dsys = scipy.signal.cont2discrete((num, den), dt, method="zoh")
+    for k in range(2):
+        _, yd = scipy.signal.dlsim(dsys, np.r_[u[:, k], 0.0])
+        # our output at call n is the response after command n was applied for one step
+        np.testing.assert_allclose(y[:, k], yd[1:, 0], atol=1e-12)
+    a = LTIActuator(1, 1, num, den, dt)
+    for _ in range(3000):
+        out = a(np.array([[1.0]]))
+    assert out[0, 0] == pytest.approx(1.0, abs=1e-9)
+
+
+def test_velocity_feedforward_cancels_delay_on_ramp():
+    """Velocity feed-forward by τ ahead of a τ delay reproduces a ramp exactly."""
+    dt, tau = 1e-3, 4e-3
+    comp = Compensator(1, 1, "velocity", tau, dt)
+    d = DelayLine(1, 1, tau, dt)
+    for n in range(50):
+        t = n * dt
+        y = d(comp(np.array([[2.0 * t]]), np.array([[2.0]])).copy())
+    assert y[0, 0] == pytest.approx(2.0 * 49 * dt, abs=1e-12)
+
+
+def test_polynomial_extrapolation_exact_for_quadratic():
+    """Second-order polynomial extrapolation predicts a quadratic exactly τ ahead."""
+    dt, tau = 1e-3, 3e-3
+    comp = Compensator(1, 1, "polynomial", tau, dt, order=2)
+    f = lambda t: 1.0 + 2.0 * t - 30.0 * t * t  # noqa: E731
+    for n in range(10):
+        out = comp(np.array([[f(n * dt)]]), np.zeros((1, 1)))
+    assert out[0, 0] == pytest.approx(f(9 * dt + tau), abs=1e-12)
+
+
+def test_sensor_first_order_gain_offset():
+    """First-order sensor settles to gain·F + offset with the time constant's exponential."""
+    dt, tc = 1e-3, 0.01
+    s = SensorModel(1, 1, dt, "first_order", tc, gain=1.1, offset=0.5)
+    ys = [s(np.array([[10.0]]))[0, 0] for _ in range(200)]
+    assert ys[-1] == pytest.approx(11.5, rel=1e-6)
+    # after one time constant (10 steps): 1 − e^{-1} of the step (plus the offset)
+    assert ys[9] == pytest.approx(11.0 * (1 - math.exp(-1.0)) + 0.5, rel=1e-9)
+
+
+def test_sensor_noise_statistics_and_ideal_passthrough():
+    """Noise has the requested standard deviation; the ideal sensor passes F'_m = F_m."""
+    s = SensorModel(1000, 1, 1e-3, noise_std=0.3, seed=3)
+    y = s(np.zeros((1000, 1)))
+    assert np.std(y) == pytest.approx(0.3, rel=0.1)
+    ideal = SensorModel(2, 1, 1e-3)
+    f = np.array([[1.0], [2.0]])
+    assert ideal(f) is f
