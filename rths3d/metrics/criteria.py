@@ -80,13 +80,23 @@ def tracking_delay(x_cmd: np.ndarray, x_meas: np.ndarray, dt: float, max_lag: in
     max_lag = int(max_lag)
     if not (1 <= max_lag < a.size - 1):
         raise ConfigError("max_lag", max_lag, f"must be in [1, {a.size - 2}] samples")
+    # Per-lag sums from cumulative sums (the global means are removed first so the
+    # one-pass covariance formula does not cancel); one dot product per lag, no copies.
+    a = a - a.mean()
+    b = b - b.mean()
+    N = a.size
+    ca, ca2 = np.cumsum(a), np.cumsum(a * a)
+    cb, cb2 = np.cumsum(b), np.cumsum(b * b)
     r = np.full(max_lag, -np.inf)
     for L in range(max_lag):
-        u = b[L:] - b[L:].mean()
-        v = a[:a.size - L] - a[:a.size - L].mean()
-        den = math.sqrt(float(u @ u) * float(v @ v))
-        if den > 0.0:
-            r[L] = float(u @ v) / den
+        n = N - L
+        sa, saa = ca[n - 1], ca2[n - 1]
+        sb = cb[-1] - (cb[L - 1] if L else 0.0)
+        sbb = cb2[-1] - (cb2[L - 1] if L else 0.0)
+        cov = float(b[L:] @ a[:n]) - sa * sb / n
+        var = (saa - sa * sa / n) * (sbb - sb * sb / n)
+        if var > 0.0:
+            r[L] = cov / math.sqrt(var)
     return int(np.argmax(r)) * float(dt)
 
 
