@@ -1,0 +1,115 @@
+"""Cost of the platform's 1 kHz tracking loop against bare ``mj_step``.
+
+Prints ONE JSON line:
+
+* ``us_per_ms_bare``: µs of wall time per simulated 1 ms for bare ``mujoco.mj_step`` on the
+  same model, replaying the controls the loop produced (control write included);
+* ``us_per_ms_loop``: the same for the full loop — ``PlatformSim.step`` (scalar IK, gravity
+  compensation, velocity feed-forward, safety checks, ``mj_step``) plus reading the achieved
+  ``pose`` and the ``interface_wrench`` every step;
+* ``loop_over_bare``: their ratio (floor ≤ 1.5 with one substep);
+* ``rtf_loop``: real-time factor of the loop, simulated s per wall s (floor ≥ 30).
+
+Both are measured in one run, interleaved, ``--repeats`` times; medians are reported. The
+machine is shared and noisy: ratios measured side by side are the figures to trust.
+Usage: ``python benchmarks/platform_loop.py [--quick] [--substeps N]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import statistics
+import time
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="short run (CI)")
+    ap.add_argument("--substeps", type=int, default=1, help="physics steps per 1 ms")
+    ap.add_argument("--repeats", type=int, default=None, help="timed repetitions")
+    args = ap.parse_args()
+
+    import mujoco
+    import numpy as np
+
+    from rths3d.platform import PlatformConfig, PlatformSim, ScalarIK
+
+    n = 2000 if args.quick else 5000
+    repeats = args.repeats or (5 if args.quick else 9)
+    cfg = PlatformConfig(substeps=args.substeps)
+    sim = PlatformSim(cfg)
+    m, d = sim.model, sim.data
+    dt = cfg.dt
+    # 1 Hz, 5 mm heave with a small sway and roll so that all legs move differently
+    t = (np.arange(n) + 1) * dt
+    fade = np.minimum(1.0, t / 0.5)
+    poses = np.zeros((n, 6))
+    poses[:, 2] = 0.005 * fade * np.sin(2 * math.pi * t)
+    poses[:, 1] = 0.002 * fade * np.sin(2 * math.pi * 0.7 * t)
+    poses[:, 3] = 0.004 * fade * np.sin(2 * math.pi * 1.3 * t)
+    rows = poses.tolist()
+
+    # the controls the loop produces, recorded once (untimed) for the bare replay
+    sim.reset()
+    ctrls = []
+    for r in rows:
+        sim.step(*r)
+        ctrls.append(sim.data.ctrl[:6].tolist())
+
+    def run_loop() -> float:
+        sim.reset()
+        step = sim.step
+        t0 = time.perf_counter()
+        for x, y, z, rx, ry, rz in rows:
+            step(x, y, z, rx, ry, rz)
+            sim.pose  # noqa: B018  (the reads are part of the loop's cost)
+            sim.interface_wrench  # noqa: B018
+        return (time.perf_counter() - t0) / n * 1e6
+
+    def run_bare() -> float:
+        sim.reset()
+        ctrl = d.ctrl
+        nsub = cfg.substeps
+        mj_step = mujoco.mj_step
+        t0 = time.perf_counter()
+        for c in ctrls:
+            ctrl[:6] = c
+            mj_step(m, d, nsub)
+        return (time.perf_counter() - t0) / n * 1e6
+
+    ik = ScalarIK(cfg.geometry).ik
+
+    def run_ik() -> float:
+        t0 = time.perf_counter()
+        for r in rows:
+            ik(*r)
+        return (time.perf_counter() - t0) / n * 1e6
+
+    loop, bare, iks, ratios = [], [], [], []
+    for _ in range(repeats):
+        b = run_bare()
+        lp = run_loop()
+        loop.append(lp)
+        bare.append(b)
+        ratios.append(lp / b)
+        iks.append(run_ik())
+    us_loop = statistics.median(loop)
+    us_bare = statistics.median(bare)
+    print(json.dumps({
+        "us_per_ms_bare": round(us_bare, 3),
+        "us_per_ms_loop": round(us_loop, 3),
+        "loop_over_bare": round(statistics.median(ratios), 4),
+        "rtf_loop": round(1000.0 / us_loop, 2),
+        "rtf_bare": round(1000.0 / us_bare, 2),
+        "us_scalar_ik": round(statistics.median(iks), 3),
+        "substeps": cfg.substeps,
+        "steps": n,
+        "repeats": repeats,
+        "quick": bool(args.quick),
+    }))
+
+
+if __name__ == "__main__":
+    main()
