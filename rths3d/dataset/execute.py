@@ -136,7 +136,7 @@ def _run_dask(spec, todo, scheduler, rec_dir, rows_fn, finished) -> None:
     except ImportError as exc:  # pragma: no cover - dask[distributed] is a dependency
         raise ConfigError("scheduler", scheduler, "needs dask[distributed] installed") from exc
     try:
-        client = Client(scheduler, timeout="10s", set_as_default=False)
+        client = Client(scheduler, timeout="10s")
     except (OSError, TimeoutError) as exc:
         raise ConfigError("scheduler", scheduler, f"cannot connect: {exc}") from exc
     try:

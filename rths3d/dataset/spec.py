@@ -152,6 +152,9 @@ def enumerate_tests(spec: SweepSpec) -> list[dict[str, Any]]:
             pick = np.random.default_rng(_stable_seed(spec.seed, fam.name, "subset")).choice(
                 len(points), size=fam.subset, replace=False)
             points = [points[i] for i in sorted(pick)]
+        # tests that share transfer/sensor/safety settings and the time grid are the ones the
+        # loop can step together: keep them consecutive so that batches group well
+        points.sort(key=_group_sort_key)
         seen: set[str] = set()
         for p in points:
             params = {**fam.fixed, **p}
@@ -163,6 +166,15 @@ def enumerate_tests(spec: SweepSpec) -> list[dict[str, Any]]:
                         "transfer": fam.transfer, "params": params,
                         "seed": _stable_seed(spec.seed, tid)})
     return out
+
+
+_GROUP_PREFIXES = ("transfer.", "sensor.", "safety.")
+
+
+def _group_sort_key(params: Mapping[str, Any]) -> str:
+    items = sorted((k, params[k]) for k in params
+                   if k.startswith(_GROUP_PREFIXES) or k in ("dt", "duration"))
+    return json.dumps(items, default=str)
 
 
 # ---------------------------------------------------------------------------- parsing

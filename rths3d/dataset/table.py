@@ -23,29 +23,18 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError
+from ..metrics.features import FEATURE_SETS, SET_1, SET_2, SET_3, TARGETS
 
 FEATURE = "feature."
 TARGET = "target."
 PARAM = "param."
 DEFAULT_TARGET = "e_rel_ref"
-
-SET_1: tuple[str, ...] = (
-    "e_rel_track", "e_mte_track", "e_peak_track", "e_rel_track_f", "fei_A", "fei_d",
-    "E_error", "E_input", "HSEM_S", "phi", "kappa", "zeta", "tau_ratio_dyn", "tau_ratio_num",
-    "tau_ratio_max",
-)
-"""Set 1 (15 features): all of Table 3."""
-SET_2: tuple[str, ...] = tuple(f for f in SET_1
-                               if f not in ("kappa", "tau_ratio_dyn", "tau_ratio_max"))
-"""Set 2 (12 features): without those needing the experimental stiffness k_EXP."""
-SET_3: tuple[str, ...] = ("e_rel_track", "e_mte_track", "e_rel_track_f", "fei_d",
-                          "tau_ratio_num", "tau_ratio_dyn", "E_error")
-"""Set 3 (7 features): the ones the paper's sensitivity analysis always ranked important."""
-FEATURE_SETS: dict[int, tuple[str, ...]] = {1: SET_1, 2: SET_2, 3: SET_3}
+__all__ = ["DEFAULT_TARGET", "FEATURE", "FEATURE_SETS", "PARAM", "SET_1", "SET_2", "SET_3",
+           "TARGET", "TARGETS", "feature_names", "training_data"]
 
 
 def feature_names(feature_set: int) -> tuple[str, ...]:
-    """Feature names of Table-3 set 1, 2 or 3."""
+    """Feature names of Table-3 set 1, 2 or 3 (as :mod:`rths3d.metrics.features`)."""
     if feature_set not in FEATURE_SETS:
         raise ConfigError("features", feature_set, "must be 1, 2 or 3 (paper Table 3)")
     return FEATURE_SETS[feature_set]

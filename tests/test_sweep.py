@@ -1,0 +1,187 @@
+"""End-to-end sweeps through the real loop: resumable, deterministic, local pool and Dask."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rths3d.dataset import load_spec, run_sweep
+
+TINY = """
+[sweep]
+name = "tiny"
+duration = 1.0
+seed = 7
+batch_size = 3
+
+[[family]]
+name = "contact"
+scene = "paper_contact"
+transfer = "lti"
+[family.grid]
+"numerical.k" = [1.0e3, 1.0e4]
+"numerical.m" = [4.81, 9.62]
+"excitation.frequency" = [0.5, 1.0]
+[family.sample]
+n = 1
+"transfer.delay" = { choice = [2e-3, 10e-3] }
+"""
+
+
+@pytest.fixture(scope="module")
+def tiny_spec(tmp_path_factory) -> Path:
+    p = tmp_path_factory.mktemp("spec") / "tiny.toml"
+    p.write_text(TINY)
+    return p
+
+
+@pytest.fixture(scope="module")
+def reference_table(tiny_spec, tmp_path_factory) -> pd.DataFrame:
+    """The tiny sweep run once, uninterrupted, in-process."""
+    out = tmp_path_factory.mktemp("ref")
+    return run_sweep(load_spec(tiny_spec), out, workers=1, progress=False)
+
+
+def _sorted(frame: pd.DataFrame) -> pd.DataFrame:
+    return frame.sort_values("test_id").reset_index(drop=True)
+
+
+def test_table_has_parameters_features_targets_status(reference_table) -> None:
+    """One row per test with param.*, the 15 set-1 features, e_rel_ref in (0, 1) and ok status."""
+    from rths3d.dataset.table import SET_1
+
+    f = reference_table
+    assert len(f) == 8 and f["test_id"].is_unique
+    for c in ("param.numerical.k", "param.transfer.delay", "status", "reason", "family"):
+        assert c in f.columns
+    for name in SET_1:
+        assert f"feature.{name}" in f.columns
+    ok = f[f["status"] == "ok"]
+    assert len(ok) == 8
+    y = ok["target.e_rel_ref"].to_numpy()
+    assert np.all(np.isfinite(y)) and np.all(y > 0) and np.all(y < 1)
+    # a longer actuator delay should give a larger tracking error for the same dynamics
+    d = ok["param.transfer.delay"].to_numpy()
+    e = ok["feature.e_rel_track"].to_numpy()
+    assert np.corrcoef(d, e)[0, 1] > 0.5
+
+
+def test_rerun_skips_finished_work(tiny_spec, tmp_path) -> None:
+    """A second run of a finished sweep computes nothing and returns the same table."""
+    spec = load_spec(tiny_spec)
+    a = run_sweep(spec, tmp_path, workers=1, progress=False)
+    mtimes = {p.name: p.stat().st_mtime_ns for p in (tmp_path / "parts").iterdir()}
+    t0 = time.perf_counter()
+    b = run_sweep(spec, tmp_path, workers=1, progress=False)
+    assert time.perf_counter() - t0 < 5.0
+    assert mtimes == {p.name: p.stat().st_mtime_ns for p in (tmp_path / "parts").iterdir()}
+    pd.testing.assert_frame_equal(a, b)
+
+
+def test_two_workers_equal_one_worker(tiny_spec, reference_table, tmp_path) -> None:
+    """The process-pool run (2 workers) gives exactly the in-process table (deterministic)."""
+    two = run_sweep(load_spec(tiny_spec), tmp_path, workers=2, progress=False)
+    pd.testing.assert_frame_equal(_sorted(two), _sorted(reference_table))
+
+
+def test_killed_sweep_resumes_to_the_same_table(tiny_spec, reference_table, tmp_path) -> None:
+    """A sweep process killed (SIGKILL) after its first finished batch, then restarted,
+    produces the same table as the uninterrupted run, without duplicate tests."""
+    out = tmp_path / "killed"
+    cmd = [sys.executable, "-m", "rths3d", "sweep", str(tiny_spec), "--out", str(out),
+           "--workers", "1", "--quiet"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    parts = out / "parts"
+    deadline = time.time() + 120
+    while time.time() < deadline and proc.poll() is None:
+        if parts.is_dir() and any(parts.glob("b*.parquet")):
+            break
+        time.sleep(0.05)
+    killed = proc.poll() is None
+    if killed:
+        os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    n_before = len(list(parts.glob("b*.parquet")))
+    assert n_before >= 1
+    if killed:
+        assert not (out / "tiny.parquet").exists() or n_before == 3
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    resumed = pd.read_parquet(out / "tiny.parquet")
+    assert resumed["test_id"].is_unique
+    pd.testing.assert_frame_equal(_sorted(resumed), _sorted(reference_table))
+
+
+def test_dask_scheduler_run_equals_local(tiny_spec, reference_table, tmp_path) -> None:
+    """A local Dask cluster (2 small workers on 127.0.0.1) run through --scheduler gives the
+    local table."""
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
+                                  host="127.0.0.1", dashboard_address=None) as cluster:
+        p = subprocess.run([sys.executable, "-m", "rths3d", "sweep", str(tiny_spec), "--out",
+                            str(tmp_path), "--scheduler", cluster.scheduler_address,
+                            "--quiet"], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    table = pd.read_parquet(tmp_path / "tiny.parquet")
+    pd.testing.assert_frame_equal(_sorted(table), _sorted(reference_table))
+
+
+def test_unreachable_scheduler_is_one_line_error(tiny_spec, tmp_path) -> None:
+    """A scheduler address nobody listens on: one error line naming --scheduler, exit 2."""
+    p = subprocess.run([sys.executable, "-m", "rths3d", "sweep", str(tiny_spec), "--out",
+                        str(tmp_path), "--scheduler", "tcp://127.0.0.1:9", "--quiet"],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2 and "scheduler" in p.stderr and "Traceback" not in p.stderr
+
+
+FRAGILE = """
+[sweep]
+name = "fragile"
+duration = 1.0
+seed = 1
+batch_size = 4
+
+[[family]]
+name = "weak_sensor"
+scene = "paper_contact"
+transfer = "lti"
+[family.fixed]
+"safety.force" = 2.0
+[family.grid]
+"numerical.k" = [1.0e3, 1.0e4]
+
+[[family]]
+name = "bad_mass"
+scene = "paper_contact"
+transfer = "lti"
+[family.grid]
+"numerical.m" = [-1.0, 9.62]
+"""
+
+
+def test_stopped_and_invalid_tests_are_recorded_with_reason(tmp_path) -> None:
+    """Tests exceeding the FTS range are rows with status 'stopped' and the limit in the reason;
+    an invalid mass is an 'error' row naming the field; the valid test still runs; training
+    data leaves both out."""
+    from rths3d.dataset import training_data
+
+    spec_path = tmp_path / "fragile.toml"
+    spec_path.write_text(FRAGILE)
+    f = run_sweep(load_spec(spec_path), tmp_path / "out", workers=1, progress=False)
+    weak = f[f["family"] == "weak_sensor"]
+    assert len(weak) == 2 and set(weak["status"]) == {"stopped"}
+    assert all("force" in r for r in weak["reason"])
+    bad = f[f["family"] == "bad_mass"].set_index("param.numerical.m")
+    assert bad.loc[-1.0, "status"] == "error" and "numerical.m" in bad.loc[-1.0, "reason"]
+    assert bad.loc[9.62, "status"] == "ok"
+    X, y, rows = training_data(f, 3)
+    assert list(rows["family"]) == ["bad_mass"] and len(y) == 1
