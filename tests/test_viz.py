@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
-import threading
 import time
 
 import numpy as np
@@ -15,7 +14,7 @@ import pytest
 from rths3d.errors import ConfigError
 from rths3d.platform import DEFAULT_GEOMETRY, inverse_kinematics
 from rths3d.platform import rotation_matrix as platform_rotation
-from rths3d.record import DOFS, Record, RecordBuffer
+from rths3d.record import DOFS, Record
 from rths3d.viz import Playback, Viewer, buffer_from_record
 from rths3d.viz.kinematics import (
     leg_segments,
@@ -266,55 +265,74 @@ def test_viewer_rejects_bad_options(record):
         Viewer(buf, exaggeration=0.5)
 
 
-def _writer(buf: RecordBuffer, src: np.ndarray, stop: threading.Event) -> None:
-    """Write rows at 1 kHz wall time, as a paced loop does (row first, then n)."""
-    t0 = time.perf_counter()
-    for k in range(src.shape[0]):
-        if stop.is_set():
-            return
-        buf.data[k] = src[k]
-        buf.n = k + 1
-        while time.perf_counter() - t0 < (k + 1) * DT:
-            time.sleep(2e-4)
+def test_headless_client_sees_scene_and_plot_updates_while_test_runs():
+    """While the real loop runs the paper's contact test on the Stewart platform (paced at
+    real time), a websocket client (subprotocol viser-v<version>) receives plate poses and
+    SSP / history data that advance with the samples the loop writes."""
+    from rths3d.loop import scene_with
+    from rths3d.viz.live import LiveRun, load_target
 
-
-def test_headless_client_sees_scene_and_plot_updates_while_test_runs(record):
-    """A websocket client (subprotocol viser-v<version>) receives plate poses and SSP / history
-    data that advance with the samples a running test writes into its buffer."""
-    full = buffer_from_record(record)
-    live = RecordBuffer(full.columns, full.n, full.meta)
-    v = Viewer(live, live=True, port=0, rate=30).start()
-    stop = threading.Event()
-    writer = threading.Thread(target=_writer, args=(live, full.data, stop), daemon=True)
+    scene = scene_with(load_target("paper_contact"), {"duration": 4.0})
+    run = LiveRun(scene, transfer="stewart", speed=1.0, start_paused=True)
+    v = run.viewer(port=0, rate=30).start()
     try:
-        with HeadlessClient(v.port) as client:
-            writer.start()
-            time.sleep(1.5)
+        with HeadlessClient(v.port) as client:  # its connection starts the paused run
+            time.sleep(2.0)
+            live = v.buffer
             n_written = live.n
+            running = run.running
             msgs = client.snapshot()
     finally:
-        stop.set()
-        writer.join()
         v.stop()
-    assert 0 < n_written < full.n  # the test was still running while we watched
+        run.close()
+    assert running and 500 < n_written < live.data.shape[0]  # watched mid-test
     plate = [m["position"] for m in msgs
              if m["type"] == "SetPositionMessage" and m["name"] == "/platform/top"]
     assert len(plate) >= 10
     assert len({round(p[2], 9) for p in plate}) >= 5  # the plate moves
-    ssp_uuid = v.ssp_plot._impl.uuid  # noqa: SLF001 — identify the SSP panel's updates
+    ssp_uuid = v.ssp_plot._impl.uuid  # identify the SSP panel's updates
     ssp = [m["updates"]["data"] for m in msgs if m["type"] == "GuiUpdateMessage"
            and m["uuid"] == ssp_uuid and "data" in m["updates"]]
     assert len(ssp) >= 10
     z, zm = ssp[-1][0], ssp[-1][1]
     assert z.size > 10 and np.all(np.diff(z) >= 0)
-    written = set(zip(full.data[:n_written, full.index["z_cmd.z"]],
-                      full.data[:n_written, full.index["z_meas.z"]], strict=True))
+    written = set(zip(live.data[:n_written, live.index["z_cmd.z"]],
+                      live.data[:n_written, live.index["z_meas.z"]], strict=True))
     assert set(zip(z, zm, strict=True)) <= written  # each dot is one recorded (z, z') pair
-    disp_uuid = v.disp_plot._impl.uuid  # noqa: SLF001
+    disp_uuid = v.disp_plot._impl.uuid
     t_last = [m["updates"]["data"][0][-1] for m in msgs if m["type"] == "GuiUpdateMessage"
               and m["uuid"] == disp_uuid and "data" in m["updates"]]
     assert len(t_last) >= 10 and np.all(np.diff(t_last) > 0)
-    assert t_last[-1] <= full.data[n_written - 1, 0] + 1e-12
+    assert t_last[-1] <= live.data[n_written - 1, 0] + 1e-12
+    assert 1.0 < t_last[-1] < 3.0  # paced at real time: about 2 s simulated in 2 s
+
+
+def test_live_run_pauses_resumes_and_restarts_with_another_transfer():
+    """Pause holds simulated time, resume continues, and a restart with the LTI transfer
+    system and another k_NUM runs a new test whose metadata carries the new values."""
+    from rths3d.loop import scene_with
+    from rths3d.viz.live import LiveRun, load_target
+
+    scene = scene_with(load_target("paper_contact"), {"duration": 3.0})
+    run = LiveRun(scene, transfer="stewart", speed=4.0)
+    buf = run.start()
+    try:
+        time.sleep(0.5)
+        run.pause()
+        time.sleep(0.3)
+        t1 = buf.data[buf.n - 1, 0]
+        time.sleep(0.5)
+        assert buf.data[buf.n - 1, 0] == t1 and t1 > 0
+        run.resume()
+        time.sleep(0.3)
+        assert buf.data[buf.n - 1, 0] > t1
+        new = run.restart("lti", {"numerical.k": 5000.0})
+        assert new is not buf and new.meta["transfer"] == "lti"
+        assert new.meta["numerical"]["K"][0][0] == pytest.approx(5000.0)
+        assert "pose_meas.z" not in new.index
+    finally:
+        run.close()
+    assert run.result is not None
 
 
 # ---------------------------------------------------------------------- CLI

@@ -25,10 +25,14 @@ def view(
     rate: float = typer.Option(30.0, help="View updates per second (at most 30)."),
     transfer: str = typer.Option("", help="Live run: transfer system (default: the scene's)."),
     seconds: float = typer.Option(0.0, help="Serve this long (s) and exit; 0 = until Ctrl-C."),
+    out: str = typer.Option("", help="Live run: save the record here on exit "
+                            "(.parquet/.csv)."),
 ) -> None:
     """Watch a hybrid test in the browser: run SCENE live, or replay a saved RECORD.
 
-    Prints the address of the page. The view shows the platform, the sensor, the experimental
+    Prints the address of the page. A live run waits for the first browser to connect, runs
+    at --speed × real time and can be paused, stopped and restarted from the page. The view
+    shows the platform, the sensor, the experimental
     part, a ghost of the numerical substructure and the interface force, the SSP (z' against
     z), time histories of z, z', z^r and F'_m, and running measures.
     """
@@ -52,7 +56,8 @@ def view(
     else:
         from ..viz.live import LiveRun
 
-        run = LiveRun.from_scene(target, transfer=transfer or None, speed=speed)
+        run = LiveRun.from_scene(target, transfer=transfer or None, speed=speed,
+                                 out=out or None)
         viewer = run.viewer(**common)
     viewer.start()
     typer.echo(f"rths3d view: {viewer.url}  (Ctrl-C to stop)", err=False)

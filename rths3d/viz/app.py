@@ -111,6 +111,8 @@ class Viewer:
                 raise ConfigError("record", buffer.n, "replay needs at least 2 samples")
             t = buffer.data[: buffer.n, 0]
             self.playback = Playback(float(t[0]), float(t[-1]), speed=speed)
+        self.on_first_client: Callable[[], None] | None = None
+        """Called once when the first browser connects (a live run starts then)."""
         self.updates = 0
         """View updates sent so far (scene and panels moved to a new sample)."""
         self.server: Any = None
@@ -142,16 +144,19 @@ class Viewer:
                                         show_logo=False)
         self.server.initial_camera.position = (1.05, -1.25, 0.95)
         self.server.initial_camera.look_at = (-0.22, 0.0, 0.32)
-        if self.playback is not None:
-            # Replay from the start for whoever opens the page first.
-            first = threading.Event()
+        # Replay from the start (or let a paused live run begin) for whoever opens the page
+        # first.
+        first = threading.Event()
 
-            def _on_connect(_client: Any) -> None:
-                if not first.is_set():
-                    first.set()
+        def _on_connect(_client: Any) -> None:
+            if not first.is_set():
+                first.set()
+                if self.playback is not None:
                     self.playback.restart()
+                if self.on_first_client is not None:
+                    self.on_first_client()
 
-            self.server.on_client_connect(_on_connect)
+        self.server.on_client_connect(_on_connect)
         self.scene = PlatformScene(self.server, self.buffer, self.geometry)
         self.scene.exaggeration = self._exaggeration
         self._build_gui()
@@ -332,19 +337,34 @@ class Viewer:
         self._dirty = True
 
     def _restart_live(self) -> None:
-        ctl = self.control
         params = {k: float(h.value) for k, h in self.param_inputs.items()}
-        buffer = ctl.restart(str(self.transfer_dropdown.value), params)
+        try:
+            buffer = self.control.restart(str(self.transfer_dropdown.value), params)
+        except Exception as exc:  # a bad value: say so in the page, keep the old run shown
+            self.status_md.content = f"**could not restart:** {exc}"
+            return
+        self.set_buffer(buffer)
+        self.pause_button.label = "Pause"
+
+    def set_buffer(self, buffer: RecordBuffer) -> None:
+        """Show another stream from now on (a restarted run). Columns may differ (another
+        transfer system records the platform pose, for example): the scene and panels are
+        rebuilt then."""
         with self._lock:
-            if buffer.columns != self.buffer.columns:
-                raise ConfigError("transfer", self.transfer_dropdown.value,
-                                  "a restart must record the same columns")
+            same = buffer.columns == self.buffer.columns
             self.buffer = buffer
             self._last_i = -1
             self._wrench_max = (0.0, 0.0)
             self.measures = RunningMeasures(buffer.meta)
+            if not same and self.server is not None:
+                self.dofs = stream_dofs(buffer.columns) or ("z",)
+                if self.dof not in self.dofs:
+                    self.dof = "z" if "z" in self.dofs else self.dofs[0]
+                self.server.scene.reset()
+                self.scene = PlatformScene(self.server, buffer, self.geometry)
+                self.scene.exaggeration = float(self.exag_slider.value)
+            self._channels = channels(buffer.index, self.dof)
             self._dirty = True
-        self.pause_button.label = "Pause"
 
     def _toggle_live_pause(self) -> None:
         if self.pause_button.label == "Pause":
@@ -423,7 +443,7 @@ class Viewer:
         fc = [idx[f"f_meas.{d}"] for d in DOFS[:3] if f"f_meas.{d}" in idx]
         tc = [idx[f"f_meas.{d}"] for d in DOFS[3:] if f"f_meas.{d}" in idx]
         stop = self.buffer.n if not self.live else i + 1
-        start = 0 if not self.live else max(0, self._last_i)
+        start = 0 if not self.live else max(0, min(self._last_i, i))
         fmax = float(np.max(np.abs(data[start:stop, fc]))) if fc else 0.0
         tmax = float(np.max(np.abs(data[start:stop, tc]))) if tc else 0.0
         fmax, tmax = max(fmax, self._wrench_max[0]), max(tmax, self._wrench_max[1])

@@ -14,6 +14,12 @@ from typing import Any
 
 import numpy as np
 
+CAMERA = {"type": "ViewerCameraMessage", "wxyz": [1.0, 0.0, 0.0, 0.0],
+          "position": [1.0, -1.2, 0.9], "fov": 1.0, "near": 0.01, "far": 100.0,
+          "image_height": 720, "image_width": 1280, "look_at": [0.0, 0.0, 0.3],
+          "up_direction": [0.0, 0.0, 1.0]}
+"""The camera report a headless client sends on connecting (m, rad; like a browser's)."""
+
 
 def decode_frame(frame: bytes) -> list[dict[str, Any]]:
     """The messages of one frame, binary placeholders replaced by numpy arrays."""
@@ -48,7 +54,9 @@ class HeadlessClient:
     """Connects to a viser server in a background thread and keeps every decoded message.
 
     ``messages`` grows as frames arrive (list of dicts, each with a ``type``); ``frames``
-    counts frames. Use as a context manager or call :meth:`close`.
+    counts frames. Like a browser it reports a camera first, which is when viser counts a
+    client as connected (``on_client_connect``). Use as a context manager or call
+    :meth:`close`.
     """
 
     def __init__(self, port: int, host: str = "127.0.0.1"):
@@ -73,12 +81,14 @@ class HeadlessClient:
         self._loop.run_until_complete(self._main())
 
     async def _main(self) -> None:
+        import msgspec
         import websockets
 
         self._stop = asyncio.Event()
         try:
             async with websockets.connect(self.url, subprotocols=[self.subprotocol],
                                           max_size=None) as ws:
+                await ws.send(msgspec.msgpack.encode(CAMERA))
                 self._connected.set()
                 while not self._stop.is_set():
                     try:
