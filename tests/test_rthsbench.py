@@ -261,3 +261,12 @@ def test_bad_configuration_names_field():
         BenchmarkConfig(derivative="ideal")
     with pytest.raises(ConfigError, match=r"plant\.k_e"):
         PlantParams(k_e=-1.0)
+
+
+def test_metrics_layer_gives_the_same_criteria(nominal):
+    """compute_measures on the run's Record yields the same J1–J9 as the benchmark evaluation."""
+    from rths3d.metrics import compute_measures
+
+    m = compute_measures(nominal[2].to_record())
+    for k, v in nominal[2].j.items():
+        assert m[k] == pytest.approx(v, abs=1e-12), k
