@@ -25,7 +25,7 @@ import numpy as np
 
 from ..effects.base import STAGES, get_effect
 from ..effects.library import FX, FZ, LEG, Z
-from ..errors import ConfigError
+from ..errors import ConfigError, RthsError
 
 G = 9.81
 """Gravitational acceleration (m/s²)."""
@@ -219,16 +219,10 @@ class BenchModel:
         by = split_effects(effects or {})
         return tuple((e.name, v) for s in ("command", "spec") for e, v in by[s])
 
-    def simulate(self, z_cmd: np.ndarray, effects: EffectValues | None = None
-                 ) -> dict[str, np.ndarray]:
-        """Replay ``z_cmd`` (m, sampled at ``dt``) through the physics; raw outputs (tared)."""
-        key = self.physics_key(effects) + (id(z_cmd), len(z_cmd))
-        hit = self._cache.get(key)
-        if hit is not None:
-            return hit
-        mj = self._mujoco
-        from mujoco import rollout
+    def _key(self, z_cmd: np.ndarray, effects: EffectValues | None) -> tuple:
+        return self.physics_key(effects) + (hash(z_cmd.tobytes()), len(z_cmd))
 
+    def _prepare(self, z_cmd: np.ndarray, effects: EffectValues | None):
         model = self.model(effects)
         cfg = self.cfg
         u = self.command_chain(z_cmd, effects)
@@ -240,15 +234,14 @@ class BenchModel:
         # staircase would excite the plate at every sample and bias the sampled forces
         ns = self.substeps
         t_sub = np.arange(ctrl.size * ns) / ns
-        control = np.interp(t_sub, np.arange(ctrl.size), ctrl)[None, :, None]
+        control = np.interp(t_sub, np.arange(ctrl.size), ctrl)[:, None]
         state0 = self._initial_state(model, float(u[0]) + w_nom / cfg.kp)
-        if self._data is None or self._data.model.nq != model.nq:
-            self._data = mj.MjData(model)
-        _, sens = rollout.rollout(model, self._data, state0[None, :], control)
-        s = sens[0, :: self.substeps]
+        return model, control, state0
+
+    def _finish(self, model, sens: np.ndarray) -> dict[str, np.ndarray]:
+        s = sens[:: self.substeps]
         self.nsim += 1
-        ft_id = model.body("ft_body").id
-        w_fts = float(model.body_subtreemass[ft_id]) * G
+        w_fts = float(model.body_subtreemass[model.body("ft_body").id]) * G
         w_all = float(model.body_subtreemass[model.body("plate").id]) * G
         out = {
             Z: s[:, 0].copy(),
@@ -263,10 +256,65 @@ class BenchModel:
             bad = int(np.argmax(~np.isfinite(s).all(axis=1) | (np.abs(s[:, 0]) > 1.0)))
             raise SafetyStop("bench replay divergence", float(np.nanmax(np.abs(s[:, 0]))), 1.0,
                              bad * self.dt, unit="m")
+        return out
+
+    def _store(self, key: tuple, out: dict[str, np.ndarray]) -> None:
         if len(self._cache) > 256:
             self._cache.clear()
         self._cache[key] = out
+
+    def simulate(self, z_cmd: np.ndarray, effects: EffectValues | None = None
+                 ) -> dict[str, np.ndarray]:
+        """Replay ``z_cmd`` (m, sampled at ``dt``) through the physics; raw outputs (tared)."""
+        z_cmd = np.ascontiguousarray(z_cmd, dtype=float)
+        key = self._key(z_cmd, effects)
+        hit = self._cache.get(key)
+        if hit is not None:
+            return hit
+        from mujoco import rollout
+
+        model, control, state0 = self._prepare(z_cmd, effects)
+        if self._data is None:
+            self._data = self._mujoco.MjData(model)
+        _, sens = rollout.rollout(model, self._data, state0[None, :], control[None])
+        out = self._finish(model, sens[0])
+        self._store(key, out)
         return out
+
+    def simulate_many(self, z_cmd: np.ndarray, effect_sets: list[EffectValues],
+                      nthread: int = 2) -> list[dict[str, np.ndarray] | Exception]:
+        """Simulate several effect sets at once: one batched ``mujoco.rollout`` call on
+        ``nthread`` threads (per-simulation models, controls and initial states). Results are
+        cached like :meth:`simulate`; a diverged simulation gives its SafetyStop in place."""
+        from mujoco import rollout
+
+        z_cmd = np.ascontiguousarray(z_cmd, dtype=float)
+        keys = [self._key(z_cmd, e) for e in effect_sets]
+        todo = [i for i, k in enumerate(keys) if k not in self._cache]
+        todo = list({keys[i]: i for i in todo}.values())
+        if len(todo) == 1:
+            self.simulate(z_cmd, effect_sets[todo[0]])
+        elif todo:
+            prep = [self._prepare(z_cmd, effect_sets[i]) for i in todo]
+            models = [p[0] for p in prep]
+            datas = [self._mujoco.MjData(models[0]) for _ in range(max(1, nthread))]
+            _, sens = rollout.rollout(models, datas, np.stack([p[2] for p in prep]),
+                                      np.stack([p[1] for p in prep]))
+            for j, i in enumerate(todo):
+                try:
+                    self._store(keys[i], self._finish(models[j], sens[j]))
+                except RthsError:
+                    pass  # re-simulated alone below, which raises it in place
+        results: list[dict[str, np.ndarray] | Exception] = []
+        for i, k in enumerate(keys):
+            if k in self._cache:
+                results.append(self._cache[k])
+            else:
+                try:
+                    results.append(self.simulate(z_cmd, effect_sets[i]))
+                except RthsError as exc:
+                    results.append(exc)
+        return results
 
     def outputs(self, sim: Mapping[str, np.ndarray], effects: EffectValues | None = None,
                 rng: np.random.Generator | None = None) -> dict[str, np.ndarray]:

@@ -304,12 +304,19 @@ class Diagnosis:
         e_tr0 = self._error(r0, train)
         e_va0 = self._error(r0, self.val)
         cands: list[Candidate] = []
+        probes = {}
+        for name in self.candidate_names:
+            if name not in self.accepted:
+                probes[name] = get_effect(name).probe(self.measured, base, self.command, self.dt)
+        # the physics probes run as one batched rollout; the loop below then hits the cache
+        self.model.simulate_many(self.command, [
+            {**self.accepted, n: v} for n, v in probes.items() if get_effect(n).needs_sim])
         for name in self.candidate_names:
             if name in self.accepted:
                 continue
             eff = get_effect(name)
             self.progress(f"screen {name}")
-            probe = eff.probe(self.measured, base, self.command, self.dt)
+            probe = probes[name]
             trial = dict(self.accepted)
             trial[name] = probe
             cand = Candidate(name, eff.param.name, eff.param.unit, 0.0)
