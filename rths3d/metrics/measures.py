@@ -285,7 +285,8 @@ def _system(record: Record, context: dict, meta: dict, nd: int, dofs: tuple[str,
             d: float, k_exp: np.ndarray | None) -> dict[str, float]:
     out: dict[str, float] = {}
     num = _numerical(context, meta)
-    m_exp_raw = _get(context, meta, "m_exp", ("experiment", "m_exp"), ("params", "m_exp"))
+    m_exp_raw = _get(context, meta, "m_exp", ("experiment", "m_exp_matrix"),
+                     ("experiment", "m_exp"), ("params", "m_exp"))
     c_exp_raw = _get(context, meta, "c_exp", ("experiment", "c_exp"), ("experiment", "d_exp"),
                      ("params", "d_exp"))
     m_exp = None if m_exp_raw is None else _matrix(m_exp_raw, nd, "m_exp")
@@ -336,7 +337,11 @@ def _system(record: Record, context: dict, meta: dict, nd: int, dofs: tuple[str,
 
 def _eei(record: Record, context: dict, meta: dict, fm: np.ndarray | None, zp: np.ndarray,
          dt: float, e_str: float | None) -> float | None:
-    """EEI when the record carries the numerical states ``x_num.<i>`` and the model."""
+    """EEI when the record carries the numerical states ``x_num.<i>`` and the model.
+
+    The external force on the numerical DOFs is ``p_num.<i>`` if recorded, else recovered from
+    the interface load f_ext = Γᵀ p when Γ is square; otherwise EEI is left out.
+    """
     xs = record.group("x_num")
     if not xs or fm is None or e_str is None:
         return None
@@ -352,8 +357,12 @@ def _eei(record: Record, context: dict, meta: dict, fm: np.ndarray | None, zp: n
     ps = record.group("p_num")
     if all(k in ps for k in keys):
         p = np.column_stack([ps[k] for k in keys])
-    elif record.has("f_ext"):
-        p = record.signal("f_ext") @ G.T  # external force applied at the interface DOFs
+    elif record.has("f_ext") and G.shape[0] == G.shape[1]:
+        # f_ext is the load seen at the interface, Γᵀ p: invertible only for a square Γ
+        try:
+            p = np.linalg.solve(G.T, record.signal("f_ext").T).T
+        except np.linalg.LinAlgError:
+            return None
     else:
         return None
     vs = record.group("v_num")
