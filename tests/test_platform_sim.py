@@ -307,3 +307,23 @@ def test_batch_divergence_flags_only_the_unstable_test():
     assert "divergence" in batch.reasons[1] and "bad acceleration" in batch.reasons[1]
     assert batch.pose[0, 2] == pytest.approx(1e-5 * 599, abs=3e-4)  # ramp lags ~14 ms
     assert abs(batch.pose[0, 2]) > 1e-3
+
+
+def test_payload_inertia_force_is_mass_times_acceleration(payload_sim):
+    """At 4 Hz the interface force of a rigid payload is m·a, opposite to the displacement."""
+    from rths3d.platform.tracking import sine_delay
+
+    f_hz = 4.0
+    rec = track(sine_trajectory("z", 0.002, f_hz, 1.5, ramp=0.25), sim=payload_sim)
+    sel = rec.t > 0.75
+    t = rec.t[sel]
+    z = rec.columns["pose_meas.z"][sel]
+    fz = rec.columns["f_meas.z"][sel]
+    w = 2 * np.pi * f_hz
+    X = np.column_stack([np.sin(w * t), np.cos(w * t), np.ones_like(t)])
+    amp_z = np.hypot(*np.linalg.lstsq(X, z, rcond=None)[0][:2])
+    amp_f = np.hypot(*np.linalg.lstsq(X, fz, rcond=None)[0][:2])
+    assert amp_f == pytest.approx(MASS * w ** 2 * amp_z, rel=0.01)
+    # f = m·a = −m ω² z: in anti-phase with the displacement (the sensor is one step late)
+    lag, _ = sine_delay(t, -z, fz, f_hz)
+    assert lag == pytest.approx(payload_sim.config.timestep, abs=0.3e-3)

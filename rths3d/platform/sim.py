@@ -420,9 +420,10 @@ class PlatformBatch:
     message; the other tests go on. Reads are arrays: ``pose`` (K, 6), ``leg_lengths``
     (K, 6), ``leg_forces`` (K, 6), ``wrench`` (K, 6) and ``interface_wrench`` (K, 6).
 
-    Per-test model parameters: ``batch.expand(field)`` (see ``mujoco.batch.Batch.expand``),
-    e.g. payload masses through ``batch.batch.body(name).mass``; call :meth:`reset` after
-    changing anything that moves the static equilibrium.
+    Per-test model parameters: ``batch.batch.expand(field)`` (see
+    ``mujoco.batch.Batch.expand``), e.g. payload masses through
+    ``batch.batch.body(name).mass = masses[:, None]``; then call ``reset(set_const=True)``
+    so that the static equilibrium (gravity compensation, FTS preload) follows.
     """
 
     def __init__(self, config: PlatformConfig | None = None, nsim: int = 1, nthread: int = 0,
@@ -460,9 +461,15 @@ class PlatformBatch:
         self.k = 0
         self.reset()
 
-    def reset(self) -> None:
-        """All tests to home with gravity compensation; clears stop flags; ``t = 0``."""
+    def reset(self, set_const: bool = False) -> None:
+        """All tests to home with gravity compensation; clears stop flags; ``t = 0``.
+
+        ``set_const=True`` first recomputes MuJoCo's derived constants per test (needed after
+        changing masses or inertias, e.g. ``batch.batch.body("payload").mass = m[:, None]``).
+        """
         mujoco = self._mujoco
+        if set_const:
+            self.batch.set_const()
         m = self.model
         cfg = self.config
         offs = np.zeros((self.nsim, 6))
