@@ -45,7 +45,7 @@ def diagnose(
     if report is not None:
         from ..diagnose.report import write_report
 
-        report_path = write_report(diag, result, report, warns)
+        report_path = write_report(diag, result, report, warns, first_round=rounds[0])
     if json_out:
         payload = result.as_dict()
         payload["waterfall"] = diag.waterfall
@@ -76,7 +76,8 @@ def diagnose(
     for col in ("rank", "effect", "value", "ΔBIC", "val. error", "significant"):
         tab.add_column(col)
     for i, c in enumerate(result.candidates, 1):
-        tab.add_row(str(i), c.effect, f"{c.value:.4g} {c.unit}" if math.isfinite(c.value) else "",
+        tab.add_row(str(i), c.effect,
+                    f"{c.value:.4g} {c.unit}" if c.fitted and math.isfinite(c.value) else "–",
                     f"{c.score:.1f}" if c.fitted else "–",
                     f"{c.error_before:.3f} → {c.error_after:.3f}" if c.fitted else "–",
                     "yes" if c.significant else "no")

@@ -169,13 +169,19 @@ def _plot_waterfall(waterfall: list[dict[str, Any]], path: Path) -> None:
 
 
 def write_report(diag: Diagnosis, result: RoundResult, out_dir: str | Path,
-                 warnings: list[str] | None = None) -> Path:
-    """Write ``report.md``, the three PNG plots and ``replay.parquet`` to ``out_dir``."""
+                 warnings: list[str] | None = None, first_round: RoundResult | None = None
+                 ) -> Path:
+    """Write ``report.md``, the three PNG plots and ``replay.parquet`` to ``out_dir``.
+
+    ``result`` is the latest round; ``first_round`` (when several rounds ran) is the one whose
+    signatures are plotted, since after the last accepted effect only noise is left to
+    explain."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     replay_record(diag).save(out_dir / "replay.parquet")
     _plot_localisation(diag, out_dir / "localisation.png")
-    _plot_signatures(result, diag.channels, out_dir / "signatures.png")
+    sig_round = first_round or result
+    _plot_signatures(sig_round, diag.channels, out_dir / "signatures.png")
     _plot_waterfall(diag.waterfall, out_dir / "waterfall.png")
     loc = localisation(diag)
     lines = ["# Model versus measurement", ""]
@@ -209,7 +215,7 @@ def write_report(diag: Diagnosis, result: RoundResult, out_dir: str | Path,
               "| rank | effect | value | 95 % interval | share | ΔBIC | val. error before → after "
               "| significant | note |", "|---|---|---|---|---|---|---|---|---|"]
     for i, c in enumerate(result.candidates, 1):
-        val = f"{c.value:.4g} {c.unit}" if math.isfinite(c.value) else "–"
+        val = f"{c.value:.4g} {c.unit}" if c.fitted and math.isfinite(c.value) else "–"
         ci = f"[{c.ci[0]:.3g}, {c.ci[1]:.3g}]" if c.fitted else "–"
         sc = f"{c.score:.1f}" if c.fitted else "not refitted"
         err = f"{c.error_before:.3f} → {c.error_after:.3f}" if c.fitted else "–"
@@ -219,6 +225,8 @@ def write_report(diag: Diagnosis, result: RoundResult, out_dir: str | Path,
         lines += ["", "Confounded pairs (their fitted changes are nearly parallel; the data "
                   "cannot tell them apart well):", ""]
         lines += [f"- {a} ↔ {b} (cos = {cos:.3f})" for a, b, cos in result.confounded]
+    if first_round is not None and first_round is not result:
+        lines += ["", "Signatures below are from the first round (nominal model):"]
     lines += ["", "![signatures](signatures.png)", "", "## Waterfall", "",
               "| step | training error | validation error |", "|---|---|---|"]
     lines += [f"| {w['step']} | {w['error_train']:.3f} | {w['error_val']:.3f} |"
