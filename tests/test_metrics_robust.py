@@ -119,3 +119,13 @@ def test_record_without_measured_motion_is_refused():
     rec = Record(t, {"z_cmd.z": np.sin(t), "f_meas.z": np.sin(t)})
     with pytest.raises(RecordError, match="z_meas"):
         compute_measures(rec)
+
+
+def test_nan_inside_a_record_names_the_column():
+    """A NaN in a record built in memory names the record column, row and time."""
+    t = np.arange(50) * DT
+    zp = np.sin(t)
+    zp[7] = np.nan
+    rec = Record(t, {"z_cmd.ry": np.sin(t), "z_meas.ry": zp})
+    with pytest.raises(RecordError, match=r"z_meas\.ry.*row 7"):
+        compute_measures(rec)

@@ -115,7 +115,13 @@ def _reference_signal(record: Record, context: dict, dofs: tuple[str, ...]) -> n
 def _signal(record: Record, name: str, dofs: tuple[str, ...]) -> np.ndarray:
     """(N, ndof) view of a Fortran-ordered stack: each DOF's samples stay contiguous, which
     keeps the per-DOF reductions and FFTs along axis 0 fast."""
-    return np.stack([record.columns[f"{name}.{d}"] for d in dofs]).T
+    stacked = np.stack([record.columns[f"{name}.{d}"] for d in dofs])
+    bad = ~np.isfinite(stacked)
+    if bad.any():
+        j, i = np.argwhere(bad)[0]
+        raise RecordError(f"record column '{name}.{dofs[j]}' has a non-finite value "
+                          f"{stacked[j, i]!r} at row {int(i)} (t = {record.t[i]:.6g} s)")
+    return stacked.T
 
 
 def _as2d(x: Any, name: str) -> tuple[np.ndarray, bool]:

@@ -32,11 +32,20 @@ def _figure(rows: int, cols: int, height: float = 3.2, width: float = 5.0):
 
 def plot_ssp(record: Record, path: str | Path) -> Path:
     """Synchronization Subspace Plot z' against z per DOF, with the unit-slope line of perfect
-    tracking, the fitted PAEI ellipse and the direction of travel."""
+    tracking, the fitted PAEI ellipse and the direction of travel; below, the gap z' − z
+    against z, which shows a small lag as an open loop."""
     dofs = record.dofs
     z, zp = record.signal("z_cmd", dofs), record.signal("z_meas", dofs)
-    plt, fig, axes = _figure(1, len(dofs), height=4.2, width=4.4)
+    plt, fig, axes = _figure(2, len(dofs), height=4.0, width=4.4)
     for j, d in enumerate(dofs):
+        # lower row: the gap z' − z against z magnifies a small lag into a visible loop
+        axg = axes[1, j]
+        axg.plot(z[:, j], zp[:, j] - z[:, j], lw=0.8, color="tab:purple")
+        axg.axhline(0.0, color="k", lw=0.7, ls="--")
+        axg.set_xlabel(f"commanded z ({UNITS.get(d, '')})")
+        axg.set_ylabel(f"z' − z ({UNITS.get(d, '')})")
+        axg.set_title(f"tracking error against command, {d}", fontsize=9)
+        axg.grid(alpha=0.3)
         ax = axes[0, j]
         a, b = z[:, j], zp[:, j]
         ax.plot(a, b, lw=0.8, color="tab:blue", label="z' against z")
@@ -112,7 +121,8 @@ def plot_fei(record: Record, path: str | Path, l: float = 2.0) -> Path:
 
 
 def plot_time(record: Record, path: str | Path) -> Path:
-    """Time histories per DOF: z, z', z^r (if present) and the gap z − z'; F'_m beside."""
+    """Time histories per DOF: z, z', z^r (if present) and, on its own axis, the gap z − z';
+    F'_m and F_ext beside."""
     dofs = record.dofs
     t = record.t
     has_f = record.has("f_meas", dofs)
@@ -127,11 +137,16 @@ def plot_time(record: Record, path: str | Path) -> Path:
         if f"z_ref.{d}" in record.columns:
             ax.plot(t, record.columns[f"z_ref.{d}"], lw=0.8, ls=":", color="k",
                     label="z^r reference")
-        ax.plot(t, z - zp, lw=0.7, color="tab:red", alpha=0.8, label="gap z − z'")
         ax.set_xlabel("t (s)")
         ax.set_ylabel(f"{d} ({u})")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="upper right")
+        # the gap is usually orders of magnitude smaller: its own axis on the right
+        axr = ax.twinx()
+        axr.plot(t, z - zp, lw=0.7, color="tab:red", alpha=0.8, label="gap z − z' (right)")
+        axr.set_ylabel(f"gap z − z' ({u})", color="tab:red")
+        axr.tick_params(axis="y", colors="tab:red")
+        lines = ax.get_lines() + axr.get_lines()
+        ax.legend(lines, [ln.get_label() for ln in lines], fontsize=7, loc="upper right")
         if has_f:
             axf = axes[j, 1]
             axf.plot(t, record.columns[f"f_meas.{d}"], lw=0.8, color="tab:green",
