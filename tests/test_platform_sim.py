@@ -327,3 +327,14 @@ def test_payload_inertia_force_is_mass_times_acceleration(payload_sim):
     # f = m·a = −m ω² z: in anti-phase with the displacement (the sensor is one step late)
     lag, _ = sine_delay(t, -z, fz, f_hz)
     assert lag == pytest.approx(payload_sim.config.timestep, abs=0.3e-3)
+
+
+@pytest.mark.parametrize("substeps", [2, 4])
+def test_substeps_keep_predicted_delay_and_tighter_gap(substeps):
+    """With 2 or 4 physics substeps the delay still matches the prediction; the gap shrinks."""
+    cfg = PlatformConfig(substeps=substeps)
+    rec = track(sine_trajectory("z", 0.005, 1.0, 2.0, ramp=0.5), cfg)
+    fig = tracking_figures(rec, "z", 1.0, cfg)
+    assert cfg.timestep == pytest.approx(1e-3 / substeps)
+    assert fig.delay == pytest.approx(predicted_delay(cfg, 1.0), abs=0.5e-3)
+    assert fig.max_eq_gap < 2.5e-6

@@ -5,6 +5,7 @@ the world frame (m), rotations ``R = Rz(rz) @ Ry(ry) @ Rx(rx)`` (rad). See docs/
 """
 
 from .geometry import DEFAULT_GEOMETRY, StewartGeometry
+from .identify import HeaveTF, identify_heave, load_heave_tf
 from .kinematics import (
     ForwardKinematicsError,
     ScalarIK,
@@ -34,11 +35,14 @@ __all__ = [
     "track",
     "tracking_figures",
     "ForwardKinematicsError",
+    "HeaveTF",
     "ScalarIK",
     "StewartGeometry",
     "check_workspace",
     "forward_kinematics",
+    "identify_heave",
     "inverse_kinematics",
     "jacobian",
+    "load_heave_tf",
     "rotation_matrix",
 ]

@@ -176,25 +176,29 @@ class PlatformConfig:
 def predicted_delay(config: PlatformConfig, frequency: float = 1.0) -> float:
     """Phase delay (s) of the achieved motion behind the command, from the actuator settings.
 
-    Timing convention: the pose commanded at step k is the target for the end of that step
-    (time ``t_k``) and the achieved pose is read at ``t_k``. The chain is
+    Timing convention: the pose commanded at interface step k is the target for the end of
+    that step (time ``t_k``), held from its start, and the achieved pose is read at ``t_k``.
+    The chain is
 
     * the transport delay ``delay``;
-    * −``timestep``: the set-point is applied from the start of the step, one physics step
-      ahead of the time it is meant for (an ideal servo would lead by one step);
+    * a lead of ``ΔT/2 + h/2`` (interface step ΔT, physics step h = ΔT/substeps): the
+      set-point is held over the whole interface step ending at the time it is meant for
+      (a zero-order hold shifted by one step, −ΔT/2), and the implicit servo reaches the
+      set-point within a physics step (−h/2) — an ideal servo would lead by one step;
     * MuJoCo's exact discrete first-order filter ``(1 − p)/(z − p)``, ``p = exp(−h/τ)``, when
       ``timeconst`` τ > 0 — its delay is ``h/(1 − p) ≈ τ + h/2`` (the force uses the filter
       state before its update, hence the extra sample);
     * the servo ``(kp + kv·s·[ff]) / (kp + kv·s)`` (the leg mass is negligible against kp at
       these frequencies): a lag of ``kv/kp`` without velocity feed-forward, none with it.
 
-    So at low frequency ``d ≈ delay − h + (τ + h/2 if τ > 0) + (kv/kp if not ff)``; this
-    function evaluates the phase of that chain exactly at ``frequency`` (Hz).
+    So at low frequency ``d ≈ delay − ΔT/2 − h/2 + (τ + h/2 if τ > 0) + (kv/kp if not ff)``;
+    this function evaluates the phase of that chain exactly at ``frequency`` (Hz). Checked
+    against simulation to ≤ 0.02 ms with one substep and ≤ 0.12 ms with 2–4 substeps.
     """
     a = config.actuator
     w = 2 * math.pi * frequency
     h = config.timestep
-    phase = w * (a.delay - h)
+    phase = w * (a.delay - 0.5 * config.dt - 0.5 * h)
     if a.timeconst > 0:
         z = complex(math.cos(w * h), math.sin(w * h))
         p = math.exp(-h / a.timeconst)
