@@ -336,7 +336,10 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
     if reference:
         from .reference import reference_solution
 
-        ref = reference_solution(scenes, nthread=nthread)
+        # the reference uses the same model of the part as the test: on the platform the
+        # MuJoCo part, on the fast path the numpy one (documented in docs/loop.md)
+        rspec = "mujoco" if (stewart or specimen == "mujoco") else "auto"
+        ref = reference_solution(scenes, nthread=nthread, specimen=rspec)
         s_zr = slice(s_zc.start + 4 * nd, s_zc.start + 5 * nd)
         s_xr = slice(ci["x_ref.0"], ci["x_ref.0"] + num.n)
         data[:, :, s_zr] = ref["z_ref"].transpose(1, 0, 2)
