@@ -152,3 +152,20 @@ def test_multi_dof_equals_column_by_column():
             assert both[j] == pytest.approx(fn(z[:, j], zp[:, j]), rel=1e-12)
     r = fei(z, zp, DT)
     assert r.d[1] == pytest.approx(fei(z[:, 1], zp[:, 1], DT).d, rel=1e-12)
+
+
+def test_paei_history_tracks_a_change_of_delay():
+    """Windowed PAEI follows a delay that switches from 5 ms to 15 ms halfway (2 %)."""
+    from rths3d.metrics import paei_history
+
+    f = 1.0
+    t = np.arange(10000) * DT
+    tau = np.where(t < 5.0, 0.005, 0.015)
+    z = np.sin(2 * np.pi * f * t)
+    zp = 0.9 * np.sin(2 * np.pi * f * (t - tau))
+    t_mid, phase, amp = paei_history(z, zp, DT, window=1.0)
+    early = (t_mid > 0.6) & (t_mid < 4.4)
+    late = (t_mid > 5.6) & (t_mid < 9.4)
+    assert np.allclose(phase[early], 2 * np.pi * f * 0.005, rtol=0.02)
+    assert np.allclose(phase[late], 2 * np.pi * f * 0.015, rtol=0.02)
+    assert np.allclose(amp[early | late], 0.9, rtol=0.02)

@@ -20,7 +20,7 @@ from .features import FEATURE_SETS, TARGETS, feature_names
 from .frequency import FEIResult, fei
 from .measures import compute_measures, feature_row
 from .reference import e_mre_ref, e_peak_ref, e_rel_ref, e_rel_ref_f
-from .ssp import fit_ellipse, paei, theta_pc, ti, ti_history
+from .ssp import fit_ellipse, paei, paei_history, theta_pc, ti, ti_history
 from .susceptibility import (
     InterfaceLoop,
     damping_ratio,
@@ -42,6 +42,6 @@ __all__ = [
     "e_peak_ref", "e_peak_track", "e_rel_ref", "e_rel_ref_f", "e_rel_track", "e_rel_track_f",
     "e_strain", "eei", "energy_balance_residual", "feature_names", "feature_row", "fei",
     "fit_ellipse", "hsem", "hsem_i", "hsem_s", "interface_loop", "mass_ratio", "omega_dyn",
-    "omega_num", "paei", "psi", "stiffness_ratio", "tau_ratio", "tau_ratio_max", "theta_pc",
-    "ti", "ti_history",
+    "omega_num", "paei", "paei_history", "psi", "stiffness_ratio", "tau_ratio",
+    "tau_ratio_max", "theta_pc", "ti", "ti_history",
 ]

@@ -154,3 +154,42 @@ def paei(z, z_meas) -> tuple[float | np.ndarray, float | np.ndarray]:
     ph = np.array([r[0] for r in res])
     am = np.array([r[1] for r in res])
     return out(ph, one), out(am, one)
+
+
+def paei_history(z, z_meas, dt: float, window: float, step: float | None = None
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """PAEI on a moving window, as Mercan's indices are used online.
+
+    Parameters
+    ----------
+    z, z_meas:
+        (N,) commanded and achieved displacement of one DOF.
+    dt:
+        Sample interval (s).
+    window:
+        Window length (s); it must cover at least half a cycle of the motion (paper).
+    step:
+        Hop between windows (s), default window / 4.
+
+    Returns ``(t_mid, phase, amp)``: window centre times measured from the first sample (s),
+    phase lag φ (rad, positive for lag) and amplitude ratio B/A per window (NaN where a window
+    has no ellipse, e.g. constant signals).
+    """
+    from ..errors import ConfigError
+    from ._signals import check_dt
+
+    step_s = check_dt(dt)
+    a, b, one = as_pair(z, z_meas, ("z", "z_meas"))
+    if not one:
+        raise ConfigError("z", a.shape, "paei_history takes one DOF: (N,) signals")
+    w = int(round(float(window) / step_s))
+    if not (6 <= w <= a.shape[0]):
+        raise ConfigError("window", window, f"s; must span 6 to {a.shape[0]} samples")
+    h = max(1, int(round((window / 4 if step is None else float(step)) / step_s)))
+    starts = np.arange(0, a.shape[0] - w + 1, h)
+    x, y = np.ascontiguousarray(a[:, 0]), np.ascontiguousarray(b[:, 0])
+    # TI increments; their sum over a window gives its sense of rotation
+    inc = np.concatenate(([0.0], np.cumsum(0.5 * (y[:-1] * x[1:] - x[:-1] * y[1:]))))
+    res = [_paei_one(x[s:s + w], y[s:s + w], float(inc[s + w - 1] - inc[s])) for s in starts]
+    t_mid = (starts + (w - 1) / 2.0) * step_s
+    return t_mid, np.array([r[0] for r in res]), np.array([r[1] for r in res])
