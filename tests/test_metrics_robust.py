@@ -103,6 +103,7 @@ def test_compute_measures_short_and_zero_record():
     rec = Record(t, {"z_cmd.z": np.zeros(8), "z_meas.z": np.zeros(8)})
     m = compute_measures(rec)
     assert math.isnan(m["e_rel_track"]) and math.isnan(m["fei_d"])
+    assert math.isnan(m.get("j1", math.nan))  # no motion: no delay to find
 
 
 def test_reference_of_other_length_is_refused():

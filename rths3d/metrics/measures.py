@@ -172,6 +172,8 @@ def _criteria(record: Record, z: np.ndarray, zp: np.ndarray, zr: np.ndarray | No
         # keep only the criteria whose inputs exist: J4/J5 need z^r, J6–J9 the floors
         drop = ([] if zr is not None else ["j4", "j5"]) + ([] if num is not None else
                                                           ["j6", "j7", "j8", "j9"])
+        if np.ptp(z[:, j]) == 0.0 or np.ptp(zp[:, j]) == 0.0:
+            row["j1"] = math.nan  # no correlation to maximise: the delay is undefined
         res.append({k: v for k, v in row.items() if k not in drop})
     return res
 
