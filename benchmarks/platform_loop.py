@@ -8,7 +8,9 @@ Prints ONE JSON line:
   compensation, velocity feed-forward, safety checks, ``mj_step``) plus reading the achieved
   ``pose`` and the ``interface_wrench`` every step;
 * ``loop_over_bare``: their ratio (floor ≤ 1.5 with one substep);
-* ``rtf_loop``: real-time factor of the loop, simulated s per wall s (floor ≥ 30).
+* ``rtf_loop``: real-time factor of the loop, simulated s per wall s (floor ≥ 30);
+* extras: ``us_scalar_ik`` (µs per 6-leg IK), ``us_per_ms_batch16_per_test`` and
+  ``rtf_batch16_aggregate`` (16 tests in one ``PlatformBatch`` on 2 threads).
 
 Both are measured in one run, interleaved, ``--repeats`` times; medians are reported. The
 machine is shared and noisy: ratios measured side by side are the figures to trust.
@@ -87,6 +89,23 @@ def main() -> None:
             ik(*r)
         return (time.perf_counter() - t0) / n * 1e6
 
+    # K tests stepped together (PlatformBatch over mujoco.batch.Batch, 2 threads)
+    from rths3d.platform import PlatformBatch
+
+    K = 16
+    batch = PlatformBatch(cfg, nsim=K, nthread=2)
+    nb = n // 2
+    bposes = [np.tile(p, (K, 1)) for p in poses[:nb]]
+
+    def run_batch() -> float:
+        batch.reset()
+        t0 = time.perf_counter()
+        for p in bposes:
+            batch.step(p)
+            batch.pose  # noqa: B018
+            batch.interface_wrench  # noqa: B018
+        return (time.perf_counter() - t0) / nb * 1e6 / K
+
     loop, bare, iks, ratios = [], [], [], []
     for _ in range(repeats):
         b = run_bare()
@@ -95,6 +114,7 @@ def main() -> None:
         bare.append(b)
         ratios.append(lp / b)
         iks.append(run_ik())
+    batch_us = [run_batch() for _ in range(max(1, repeats // 2))]
     us_loop = statistics.median(loop)
     us_bare = statistics.median(bare)
     print(json.dumps({
@@ -104,6 +124,8 @@ def main() -> None:
         "rtf_loop": round(1000.0 / us_loop, 2),
         "rtf_bare": round(1000.0 / us_bare, 2),
         "us_scalar_ik": round(statistics.median(iks), 3),
+        "us_per_ms_batch16_per_test": round(statistics.median(batch_us), 3),
+        "rtf_batch16_aggregate": round(1000.0 / statistics.median(batch_us), 2),
         "substeps": cfg.substeps,
         "steps": n,
         "repeats": repeats,

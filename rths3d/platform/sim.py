@@ -455,6 +455,10 @@ class PlatformBatch:
         from .kinematics import inverse_kinematics
 
         self._inverse_kinematics = inverse_kinematics
+        # anchors precomputed for the per-step inverse kinematics over tests
+        self._b = g.base_anchors()
+        self._p = g.top_anchors()
+        self._hh = float(g.home_height)
         self.stopped = np.zeros(nsim, dtype=bool)
         self.reasons = [""] * nsim
         self.stop_time = np.full(nsim, np.nan)
@@ -518,6 +522,19 @@ class PlatformBatch:
         """Simulated test time (s) since reset."""
         return self.k * self.config.dt
 
+    def _ik(self, q: np.ndarray) -> np.ndarray:
+        """Leg lengths (K, 6) of poses (K, 6): the kinematics of ``inverse_kinematics``
+        with the anchors precomputed (only the first two columns of R act on them)."""
+        cx, sx = np.cos(q[:, 3:4]), np.sin(q[:, 3:4])
+        cy, sy = np.cos(q[:, 4:5]), np.sin(q[:, 4:5])
+        cz, sz = np.cos(q[:, 5:6]), np.sin(q[:, 5:6])
+        px, py = self._p[:, 0], self._p[:, 1]
+        b = self._b
+        lx = q[:, 0:1] + (cz * cy) * px + (cz * sy * sx - sz * cx) * py - b[:, 0]
+        ly = q[:, 1:2] + (sz * cy) * px + (sz * sy * sx + cz * cx) * py - b[:, 1]
+        lz = (q[:, 2:3] + self._hh) - sy * px + (cy * sx) * py - b[:, 2]
+        return np.sqrt(lx * lx + ly * ly + lz * lz)
+
     def _freeze(self, k: int, stop: SafetyStop) -> None:
         if not self.stopped[k]:
             self.stopped[k] = True
@@ -548,7 +565,12 @@ class PlatformBatch:
         cfg = self.config
         dt = cfg.dt
         poses = np.asarray(poses, dtype=float)
-        L = self._inverse_kinematics(cfg.geometry, poses)
+        if poses.shape != (self.nsim, 6):
+            from ..errors import ConfigError
+
+            raise ConfigError("poses", f"array of shape {poses.shape}",
+                              f"need ({self.nsim}, 6)")
+        L = self._ik(poses)
         s = L - self._home
         dL = L - self._Lprev
         half = cfg.stroke / 2
