@@ -302,3 +302,12 @@ def test_difference_equation_validates():
     """A zero leading denominator coefficient is refused with the field named."""
     with pytest.raises(ConfigError, match=r"controller\.a"):
         DifferenceEquation.from_arrays([1.0], [0.0, 1.0], 1e-3)
+
+
+def test_ground_motion_zero_order_hold():
+    """held() keeps each record sample until the next one and is zero outside the record."""
+    from rths3d.lti import GroundMotion
+
+    gm = GroundMotion(np.array([0.0, 0.1, 0.2]), np.array([1.0, 2.0, 3.0]), scale=2.0)
+    np.testing.assert_allclose(gm.held(np.array([-0.01, 0.0, 0.05, 0.1, 0.199, 0.2, 0.3])),
+                               [0.0, 2.0, 2.0, 4.0, 4.0, 6.0, 0.0])

@@ -270,3 +270,18 @@ def test_metrics_layer_gives_the_same_criteria(nominal):
     m = compute_measures(nominal[2].to_record())
     for k, v in nominal[2].j.items():
         assert m[k] == pytest.approx(v, abs=1e-12), k
+
+
+def test_record_hold_and_ideal_derivative_sensitivities(nominal, elcentro):
+    """Holding the record moves J5 by up to −0.76 and J3 up to +0.23; an ideal CSI derivative
+    lowers J4 by 0.05–0.12 (SPEC §11)."""
+    d5, d3 = [], []
+    for c in (1, 2):
+        row = run_case(BenchmarkConfig(case=c, ground_interp="record_hold"), gm=elcentro).table_row()
+        d5.append(row["J5"] - nominal[c].table_row()["J5"])
+        d3.append(row["J3"] - nominal[c].table_row()["J3"])
+    assert min(d5) == pytest.approx(-0.76, abs=0.02)
+    assert max(d3) == pytest.approx(0.23, abs=0.02)
+    for c in (1, 4):
+        row = run_case(BenchmarkConfig(case=c, derivative="exact"), gm=elcentro).table_row()
+        assert 0.04 <= nominal[c].table_row()["J4"] - row["J4"] <= 0.13

@@ -65,6 +65,13 @@ class GroundMotion:
         """Scaled ẍ_g at times ``t`` (s), linear interpolation, zero outside the record."""
         return self.scale * np.interp(t, self.t, self.accel, left=0.0, right=0.0)
 
+    def held(self, t: float | np.ndarray) -> np.ndarray:
+        """Scaled ẍ_g at ``t`` with the record held between its samples (zero-order hold)."""
+        tt = np.asarray(t, dtype=float)
+        i = np.searchsorted(self.t, tt, side="right") - 1
+        inside = (i >= 0) & (tt <= self.t[-1])
+        return self.scale * np.where(inside, self.accel[np.clip(i, 0, self.t.size - 1)], 0.0)
+
     def sample(self, dt: float, n: int | None = None, offset: float = 0.0) -> np.ndarray:
         """Scaled ẍ_g on the grid ``offset + k·dt``, k = 0 … n−1 (n defaults to the record)."""
         if n is None:

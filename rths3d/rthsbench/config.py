@@ -93,7 +93,9 @@ class BenchmarkConfig:
     quantize: A/D and D/A quantisation (interval q, m) and saturation (±sat, in m).
     derivative: CSI/force derivative blocks ``simulink`` (backward differences) or ``exact``
       (CSI from the state velocity; force derivatives stay backward differences).
-    ground_interp: ground acceleration at RK4 stages ``linear`` (From File block) or ``hold``.
+    ground_interp: ground acceleration at RK4 stages: ``linear`` (From File block with
+      interpolation, the benchmark), ``hold`` (ẍ_g(t_k) held over each RK4 step) or
+      ``record_hold`` (the record itself held between its samples, no interpolation).
     reference: discretisation of the reference response, ``foh`` (lsim) or ``zoh``.
     force_limit: |F_act| limit in N (8900); the run stops when reached.
     convention: J1–J9 convention of :mod:`rths3d.metrics.criteria`.
@@ -138,8 +140,9 @@ class BenchmarkConfig:
              self.noise_generator in ("simulink", "numpy"), "must be 'simulink' or 'numpy'"),
             ("derivative", self.derivative, self.derivative in ("simulink", "exact"),
              "must be 'simulink' or 'exact'"),
-            ("ground_interp", self.ground_interp, self.ground_interp in ("linear", "hold"),
-             "must be 'linear' or 'hold'"),
+            ("ground_interp", self.ground_interp,
+             self.ground_interp in ("linear", "hold", "record_hold"),
+             "must be 'linear', 'hold' or 'record_hold'"),
             ("reference", self.reference, self.reference in ("foh", "zoh"),
              "must be 'foh' or 'zoh'"),
             ("convention", self.convention, self.convention in ("code", "paper"),

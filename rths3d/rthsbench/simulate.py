@@ -197,6 +197,8 @@ def _grid(cfg: BenchmarkConfig, gm: GroundMotion) -> tuple[int, np.ndarray]:
 
 def _ground_stages(cfg: BenchmarkConfig, gm: GroundMotion, t: np.ndarray) -> np.ndarray:
     """ẍ_g at t_k, t_k + h/2, t_k + h for every step, shape (N, 3) (m/s²)."""
+    if cfg.ground_interp == "record_hold":
+        return np.stack([gm.held(t), gm.held(t + 0.5 * cfg.dt), gm.held(t + cfg.dt)], axis=1)
     a0 = gm(t)
     if cfg.ground_interp == "hold":
         return np.stack([a0, a0, a0], axis=1)
