@@ -74,7 +74,8 @@ def _closed_form_tau_cr(m, c, k, ke):
 
 
 @pytest.mark.parametrize("m,c,k,ke", [(1.0, 2.0, 1e4, 3e3), (9.62, 100.0, 1e4, 8650.0),
-                                      (4.81, 50.0, 5e5, 8650.0)])
+                                      (4.81, 50.0, 5e5, 8650.0),
+                                      (1.0, 0.1, 1e4, 30.0)])  # ζ = 5e-4: a narrow band
 def test_interface_loop_matches_closed_form(m, c, k, ke):
     """Grid + bisection critical delay equals the closed-form SDOF stability switch."""
     loop = interface_loop(m, c, k, 0.0, 0.0, ke)
