@@ -338,3 +338,27 @@ def test_substeps_keep_predicted_delay_and_tighter_gap(substeps):
     assert cfg.timestep == pytest.approx(1e-3 / substeps)
     assert fig.delay == pytest.approx(predicted_delay(cfg, 1.0), abs=0.5e-3)
     assert fig.max_eq_gap < 2.5e-6
+
+
+def test_world_contact_force_reaches_interface_wrench():
+    """A world surface (world_xml) stopping the specimen: f_meas,z = spring force, > 0."""
+    from rths3d.platform.geometry import DEFAULT_GEOMETRY as G
+
+    k, m, gap = 2.0e4, 0.5, 0.002
+    q_eq = -m * 9.81 / k
+    payload = (f'<body name="spec"><joint name="spec_z" type="slide" axis="0 0 1" '
+               f'stiffness="{k}" damping="200"/><geom type="sphere" size="0.02" '
+               f'mass="{m}" pos="0 0 0.02"/></body>')
+    top = G.home_height + G.fts_height + 0.04 + q_eq  # sphere top at rest, world z (m)
+    world = (f'<geom name="stop" type="box" size="0.1 0.1 0.01" pos="0 0 {top + gap + 0.01}" '
+             f'solref="0.002 1"/>')
+    sim = PlatformSim(PlatformConfig(), payload_xml=payload, world_xml=world, settle=0.3)
+    assert sim.interface_wrench[2] == pytest.approx(0.0, abs=1e-3)  # no contact yet
+    adr = sim.model.jnt_qposadr[sim.model.joint("spec_z").id]
+    for j in range(1500):
+        s = min(1.0, (j + 1) / 1000)
+        sim.step(0.0, 0.0, 0.005 * (0.5 - 0.5 * math.cos(math.pi * s)), 0.0, 0.0, 0.0)
+    compression = q_eq - float(sim.data.qpos[adr])
+    assert compression > 0.002  # the surface holds the mass while the plate rises 5 mm
+    assert sim.interface_wrench[2] == pytest.approx(k * compression, rel=0.02)
+    assert sim.model.geom("stop").contype == 1  # world geoms keep MuJoCo's defaults

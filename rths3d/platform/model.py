@@ -276,11 +276,13 @@ def model_xml(config: PlatformConfig, payload_xml: str | None = None,
     <body name="leg{i}_cyl" pos="{_fmt(b[i])}" quat="{_fmt(q)}">
       <joint name="leg{i}_u1" type="hinge" axis="1 0 0"/>
       <joint name="leg{i}_u2" type="hinge" axis="0 1 0"/>
-      <geom name="leg{i}_cyl" type="cylinder" size="{leg_r} {cyl_len / 2:.12g}"
+      <geom name="leg{i}_cyl" class="platform" type="cylinder"
+            size="{leg_r} {cyl_len / 2:.12g}"
             pos="0 0 {cyl_len / 2:.12g}" mass="{g.cylinder_mass:.12g}" rgba="0.35 0.38 0.42 1"/>
       <body name="leg{i}_piston">
         <joint name="leg{i}_slide" type="slide" axis="0 0 1"/>
-        <geom name="leg{i}_piston" type="cylinder" size="{0.6 * leg_r} {pis_len / 2:.12g}"
+        <geom name="leg{i}_piston" class="platform" type="cylinder"
+              size="{0.6 * leg_r} {pis_len / 2:.12g}"
               pos="0 0 {L[i] - pis_len / 2:.12g}" mass="{g.piston_mass:.12g}"
               rgba="0.75 0.77 0.8 1"/>
         <site name="leg{i}_tip" pos="0 0 {L[i]:.12g}" size="0.006"/>
@@ -309,20 +311,22 @@ def model_xml(config: PlatformConfig, payload_xml: str | None = None,
     {plate_mesh}
   </asset>
   <default>
-    <geom contype="0" conaffinity="0"/>
+    <default class="platform">
+      <geom contype="0" conaffinity="0"/>
+    </default>
   </default>
   <worldbody>
     <light pos="0 0 3" dir="0 0 -1" directional="true"/>
     <body name="base">
-      <geom name="base" type="mesh" mesh="base_mesh" rgba="0.25 0.27 0.3 1"/>
+      <geom name="base" class="platform" type="mesh" mesh="base_mesh" rgba="0.25 0.27 0.3 1"/>
     </body>
 {"".join(legs)}
     <body name="plate" pos="0 0 {g.home_height:.12g}">
       <freejoint name="plate_free"/>
-      <geom name="plate" type="mesh" mesh="plate_mesh" mass="{g.plate_mass:.12g}"
+      <geom name="plate" class="platform" type="mesh" mesh="plate_mesh" mass="{g.plate_mass:.12g}"
             rgba="0.55 0.6 0.68 1"/>
 {anchors}
-      <geom name="fts" type="cylinder" size="{fts_r} {g.fts_height / 2:.12g}"
+      <geom name="fts" class="platform" type="cylinder" size="{fts_r} {g.fts_height / 2:.12g}"
             pos="0 0 {g.fts_height / 2:.12g}" mass="{g.fts_mass:.12g}" rgba="0.85 0.55 0.1 1"/>
       <body name="fts_body">
         <site name="fts" pos="0 0 {g.fts_height:.12g}" size="0.01"/>
