@@ -220,3 +220,18 @@ def test_cli_bad_input_one_line_exit_2(tmp_path, capsys):
         cli_main(["diagnose", str(path), "--add", "gremlins"])
     assert ex.value.code == 2
     assert "known effects" in capsys.readouterr().err
+
+
+def test_hidden_friction_found_on_the_stewart_platform(tmp_path):
+    """Stewart backend: Coulomb leg friction hidden in a measurement is ranked first, fitted
+    within 10 %, and the error falls to the noise floor."""
+    rec = synthetic_measurement({"coulomb_friction": 20.0}, duration=2.0, seed=4,
+                                model="stewart")
+    loaded, _, _ = load_measurement(rec.save(tmp_path / "stewart.parquet"))
+    assert loaded.meta["bench"]["model"] == "stewart"
+    diag = Diagnosis(loaded, top_k=3)
+    res = diag.run()
+    top = res.candidates[0]
+    assert top.effect == "coulomb_friction" and top.significant
+    assert top.value == pytest.approx(20.0, rel=0.1)
+    assert top.error_after < 1.2 < 10 < top.error_before

@@ -47,6 +47,23 @@ def test_off_value_reproduces_baseline_exactly(bench, command, name):
 
 
 @pytest.mark.parametrize("name", sorted(n for n, e in REGISTRY.items() if e.candidate))
+def test_effect_is_continuous_at_its_off_value(bench, command, name):
+    """Just beside the off value (1e-3 of the typical scale) the outputs move by < 2 % of
+    the change at the typical scale: the off value is the limit of the effect, not a jump."""
+    eff = get_effect(name)
+    p = eff.param
+    scale_v = eff.probe({}, {}, command, DT)
+    near = p.hi if math.isinf(p.off) else p.off + 1e-3 * (scale_v - p.off)
+    base = bench.replay(command, {})
+    far = bench.replay(command, {name: scale_v})
+    close = bench.replay(command, {name: near})
+    for c in ("z_meas.z", "f_meas.z", "f_meas.x", "leg_force.0"):
+        big = float(np.max(np.abs(far[c] - base[c])))
+        small = float(np.max(np.abs(close[c] - base[c])))
+        assert small <= 0.02 * big + 1e-12, (c, small, big)
+
+
+@pytest.mark.parametrize("name", sorted(n for n, e in REGISTRY.items() if e.candidate))
 def test_effect_at_scale_changes_the_outputs(bench, command, name):
     """Every candidate at a typical magnitude changes at least one channel beyond 1e-9."""
     eff = get_effect(name)
@@ -194,3 +211,35 @@ def test_bench_config_validation(tmp_path):
     assert load_bench(p).k_exp == 2e4
     with pytest.raises(ConfigError, match="scene"):
         load_bench(tmp_path / "missing.toml")
+
+
+@pytest.fixture(scope="module")
+def stewart():
+    from rths3d.diagnose.stewart import StewartBenchModel
+
+    return StewartBenchModel(BenchConfig(), DT)
+
+
+def test_stewart_off_values_and_rest(stewart, command):
+    """Stewart backend: at rest every tared channel reads ~0, and every effect at its off
+    value reproduces the nominal replay bit for bit."""
+    rest = stewart.replay(np.zeros(300), {})
+    assert np.max(np.abs(rest["z_meas.z"])) < 1e-6
+    assert np.max(np.abs(rest["f_meas.z"])) < 0.05  # N, below the sensor noise
+    base = stewart.replay(command, {})
+    for name, eff in REGISTRY.items():
+        off = stewart.replay(command, {name: eff.param.off})
+        for c in base:
+            np.testing.assert_array_equal(off[c], base[c])
+
+
+def test_stewart_friction_acts_on_every_leg(stewart, command):
+    """Leg friction F_c on the Stewart platform shifts each leg force by about ±F_c while
+    the legs move (heave: all six legs alike)."""
+    d = {c: stewart.replay(command, {"coulomb_friction": 25.0})[c] - stewart.replay(
+        command, {})[c] for c in stewart.channels}
+    legs = np.column_stack([d[f"leg_force.{i}"] for i in range(6)])
+    v = np.gradient(command, DT)
+    moving = np.abs(v) > 5e-3
+    shift = np.median(np.abs(legs[moving]), axis=0)
+    np.testing.assert_allclose(shift, 25.0, rtol=0.15)

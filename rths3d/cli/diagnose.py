@@ -13,8 +13,9 @@ from ._app import app
 def diagnose(
     measurement: Path = typer.Argument(..., help="Measurement record (.parquet or .csv)."),
     scene: str = typer.Option("bench", "--scene",
-                              help="Bench model: 'bench' (record metadata or defaults) or a "
-                                   "TOML file with a [bench] table."),
+                              help="Bench model: 'bench' (1-D heave bench), 'stewart' (six-leg "
+                                   "platform) — parameters from the record metadata or the "
+                                   "defaults — or a TOML file with a [bench] table."),
     add: list[str] = typer.Option([], "--add",
                                   help="EFFECT (fitted) or EFFECT=value (held at value, SI "
                                        "unit); repeatable."),
@@ -30,13 +31,14 @@ def diagnose(
     import json
     import math
 
-    from ..diagnose import Diagnosis, load_bench, load_measurement
+    from ..diagnose import Diagnosis, load_measurement
+    from ..diagnose.bench import resolve_scene
     from ..effects import parse_effect_arg
 
     adds = [parse_effect_arg(a) for a in add]
     rec, channels, warns = load_measurement(measurement)
-    bench = load_bench(None if scene in ("bench", "default") else scene, rec.meta)
-    diag = Diagnosis(rec, bench, top_k=top_k)
+    bench, kind = resolve_scene(scene, rec.meta)
+    diag = Diagnosis(rec, bench, model=kind, top_k=top_k)
     for name, value in adds:
         diag.add(name, value, fix=value is not None)
     rounds = diag.auto() if auto else [diag.run()]

@@ -10,10 +10,12 @@ Typical use::
         diag.add(result.proposal.effect)   # accept → refit → waterfall step
 """
 
-from .bench import BenchConfig, BenchModel, load_bench
+from .bench import BenchConfig, BenchModel, load_bench, resolve_scene
 from .engine import Candidate, Diagnosis, RoundResult
 from .measurement import check_measurement, load_measurement
+from .stewart import StewartBenchModel, make_model
 from .synth import multisine, synthetic_measurement
 
-__all__ = ["BenchConfig", "BenchModel", "load_bench", "Candidate", "Diagnosis", "RoundResult",
+__all__ = ["BenchConfig", "BenchModel", "load_bench", "resolve_scene", "StewartBenchModel",
+           "make_model", "Candidate", "Diagnosis", "RoundResult",
            "check_measurement", "load_measurement", "multisine", "synthetic_measurement"]

@@ -33,9 +33,9 @@ from typing import Any
 import numpy as np
 
 from ..effects.base import REGISTRY, get_effect
-from ..errors import ConfigError, RthsError
+from ..errors import ConfigError, RecordError, RthsError
 from ..record import Record
-from .bench import BenchConfig, BenchModel, load_bench
+from .bench import BenchConfig, BenchModel, resolve_scene
 from .localise import effective_samples, noise_floor
 from .measurement import COMMAND, check_measurement
 
@@ -112,7 +112,10 @@ class Diagnosis:
     record:
         The measurement (schema of :mod:`rths3d.record`): ``z_cmd.z`` plus measured channels.
     bench:
-        Nominal bench model (default: ``record.meta['bench']`` or the built-in bench).
+        Nominal bench parameters (default: ``record.meta['bench']`` or the built-in bench).
+    model:
+        ``"bench"`` (1-D heave bench), ``"stewart"`` (six-leg platform) or a ready
+        :class:`~rths3d.diagnose.bench.BenchModel`; default from ``record.meta['bench']``.
     candidates:
         Effect names to consider (default: every registered candidate).
     block:
@@ -124,13 +127,27 @@ class Diagnosis:
     """
 
     def __init__(self, record: Record, bench: BenchConfig | None = None, *,
-                 candidates: Iterable[str] | None = None, block: float = 0.5, top_k: int = 5,
+                 model: str | BenchModel | None = None, candidates: Iterable[str] | None = None,
+                 block: float = 0.5, top_k: int = 5,
                  min_gain: float = 0.01, max_nfev: int = 30,
                  progress: Callable[[str], None] | None = None):
         self.channels = check_measurement(record)
         self.record = record
-        self.bench = bench or load_bench(None, record.meta)
-        self.model = BenchModel(self.bench, record.dt)
+        meta_cfg, kind = resolve_scene(None, record.meta)
+        self.bench = bench or meta_cfg
+        if isinstance(model, BenchModel):
+            self.model = model
+        else:
+            from .stewart import make_model
+
+            self.model = make_model(self.bench, record.dt, model or kind)
+        produced = set(self.model.channels)
+        self.ignored = tuple(c for c in self.channels if c not in produced)
+        """Measured channels this model does not produce (not compared)."""
+        self.channels = tuple(c for c in self.channels if c in produced)
+        if not self.channels:
+            raise RecordError("the measurement has no channel this bench model produces "
+                              f"({', '.join(sorted(produced))})")
         self.dt = record.dt
         self.command = np.ascontiguousarray(record.columns[COMMAND], dtype=float)
         self.measured = {c: np.asarray(record.columns[c], dtype=float) for c in self.channels}

@@ -16,7 +16,8 @@ COMMAND = "z_cmd.z"
 
 LIMITS: dict[str, tuple[float, str]] = {
     "z_cmd.z": (0.5, "m"), "z_meas.z": (0.5, "m"),
-    "f_meas.z": (1e5, "N"), "f_meas.x": (1e5, "N"), "leg_force.0": (1e6, "N"),
+    "f_meas.z": (1e5, "N"), "f_meas.x": (1e5, "N"),
+    **{f"leg_force.{i}": (1e6, "N") for i in range(6)},
 }
 """Largest plausible absolute value per channel; larger values usually mean mm or kN."""
 

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..record import Record
-from .bench import BenchConfig, BenchModel
+from .bench import BenchConfig
 
 DEFAULT_TONES: tuple[tuple[float, float], ...] = (
     (0.4, 3.0e-3), (1.1, 1.0e-3), (2.7, 4.0e-4), (6.3, 1.5e-4), (11.0, 8.0e-5),
@@ -43,10 +43,13 @@ def multisine(duration: float, dt: float = 1e-3, tones=DEFAULT_TONES, seed: int 
 def synthetic_measurement(effects: Mapping[str, float] | None = None, *, duration: float = 3.0,
                           dt: float = 1e-3, noise: float = 1.0, seed: int = 0,
                           bench: BenchConfig | None = None, excitation_seed: int | None = None,
-                          ) -> Record:
+                          model: str = "bench") -> Record:
     """A record as a bench would produce it, with ``effects`` hidden in the physics and
-    sensors and white sensor noise (``noise`` × the nominal σ of each channel)."""
-    model = BenchModel(bench, dt)
+    sensors and white sensor noise (``noise`` × the nominal σ of each channel). ``model``:
+    ``"bench"`` (1-D heave bench) or ``"stewart"`` (six-leg platform)."""
+    from .stewart import make_model
+
+    model = make_model(bench, dt, model)
     t, z_cmd = multisine(duration, dt, seed=seed if excitation_seed is None else excitation_seed)
     eff = dict(effects or {})
     if noise:

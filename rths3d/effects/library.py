@@ -6,9 +6,14 @@ a ``signature`` sentence and the hook of its stage, and decorate it with ``@regi
 diagnosis, the ``rths3d effects`` listing, the synthetic measurements and the report pick it
 up from :data:`~rths3d.effects.base.REGISTRY`.
 
-Output channels of the bench model (record column names, SI units):
+Output channels of the bench models (record column names, SI units):
 ``z_meas.z`` (m, plate displacement), ``f_meas.z`` and ``f_meas.x`` (N, force-torque-sensor
-force on the specimen, tared), ``leg_force.0`` (N, actuator force, tared).
+force on the specimen, tared), ``leg_force.<i>`` (N, actuator forces, tared; one leg on the
+1-D bench, six on the Stewart platform).
+
+Spec-stage hooks address the model through the names a backend exposes (``bench`` argument):
+``leg_joints``, ``leg_actuators``, ``kp``, ``physics_step``, ``fixture_geom``, ``m_fixture``,
+``specimen_joint``, ``k_exp``, ``c_exp``, ``wall_geom``.
 """
 
 from __future__ import annotations
@@ -25,10 +30,11 @@ Z = "z_meas.z"
 FZ = "f_meas.z"
 FX = "f_meas.x"
 LEG = "leg_force.0"
-OUTPUTS: tuple[str, ...] = (Z, FZ, FX, LEG)
-"""Channels the bench model produces."""
+LEGS: tuple[str, ...] = tuple(f"leg_force.{i}" for i in range(6))
+OUTPUTS: tuple[str, ...] = (Z, FZ, FX, *LEGS)
+"""Channels the bench models produce."""
 
-NOISE_SIGMA: dict[str, float] = {Z: 5e-7, FZ: 0.05, FX: 0.05, LEG: 0.5}
+NOISE_SIGMA: dict[str, float] = {Z: 5e-7, FZ: 0.05, FX: 0.05, **{c: 0.5 for c in LEGS}}
 """Standard deviation of sensor noise at ``sensor_noise = 1`` (m or N)."""
 
 
@@ -267,7 +273,10 @@ class CoulombFriction(Effect):
     signature = "leg force jumps by 2·F_c at velocity reversals; residual ∝ sign(velocity)"
 
     def apply_spec(self, spec, value, bench):
-        spec.joint("plate_z").frictionloss = value
+        for j in bench.leg_joints:
+            spec.joint(j).frictionloss = value
+            # a stiff friction constraint, so F_c is reached at small slip velocities
+            spec.joint(j).solref_friction = np.array([2.0 * bench.physics_step, 1.0])
 
 
 @register
@@ -279,7 +288,8 @@ class ViscousFriction(Effect):
     signature = "leg force residual ∝ velocity; small displacement lag"
 
     def apply_spec(self, spec, value, bench):
-        spec.joint("plate_z").damping = np.array([value, 0.0, 0.0])
+        for j in bench.leg_joints:
+            spec.joint(j).damping = np.array([value, 0.0, 0.0])
 
 
 @register
@@ -292,8 +302,7 @@ class FixtureMass(Effect):
     signature = "force residual ∝ acceleration"
 
     def apply_spec(self, spec, value, bench):
-        g = spec.geom("ft_geom")
-        g.mass = bench.m_fts + value
+        spec.geom(bench.fixture_geom).mass = bench.m_fixture + value
 
 
 @register
@@ -307,13 +316,14 @@ class PlatformCompliance(Effect):
 
     def apply_spec(self, spec, value, bench):
         kp = bench.kp / (1.0 + bench.kp * value)
-        act = spec.actuator("leg")
-        gain = np.array(act.gainprm)
-        bias = np.array(act.biasprm)
-        gain[0] = kp
-        bias[1] = -kp
-        act.gainprm = gain
-        act.biasprm = bias
+        for name in bench.leg_actuators:
+            act = spec.actuator(name)
+            gain = np.array(act.gainprm)
+            bias = np.array(act.biasprm)
+            gain[0] = kp
+            bias[1] = -kp
+            act.gainprm = gain
+            act.biasprm = bias
 
 
 @register
@@ -325,7 +335,8 @@ class SpecimenStiffness(Effect):
     signature = "force residual ∝ specimen deformation; resonance shifts"
 
     def apply_spec(self, spec, value, bench):
-        spec.joint("spec_z").stiffness = np.array([bench.k_exp * (1.0 + value), 0.0, 0.0])
+        spec.joint(bench.specimen_joint).stiffness = np.array(
+            [bench.k_exp * (1.0 + value), 0.0, 0.0])
 
 
 @register
@@ -337,7 +348,8 @@ class SpecimenDamping(Effect):
     signature = "force residual ∝ specimen deformation rate, largest near resonance"
 
     def apply_spec(self, spec, value, bench):
-        spec.joint("spec_z").damping = np.array([bench.c_exp * (1.0 + value), 0.0, 0.0])
+        spec.joint(bench.specimen_joint).damping = np.array(
+            [bench.c_exp * (1.0 + value), 0.0, 0.0])
 
 
 @register
@@ -349,7 +361,7 @@ class ContactGap(Effect):
     signature = "force residual only in and near contact phases"
 
     def apply_spec(self, spec, value, bench):
-        g = spec.geom("wall")
+        g = spec.geom(bench.wall_geom)
         pos = np.array(g.pos)
         pos[2] += value
         g.pos = pos
