@@ -20,6 +20,7 @@ Public API: :func:`run` (one test), :func:`run_batch` (many parameter sets, K at
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 import time
@@ -144,6 +145,7 @@ def build_numerical(scenes: Sequence[Scene], method: str | None = None):
                               method or base.numerical.integrator)
 
 
+@functools.lru_cache(maxsize=1)
 def _versions() -> dict[str, str]:
     from importlib.metadata import version
 
@@ -165,7 +167,7 @@ def _meta(scene: Scene, num, k: int, transfer_meta: dict) -> dict[str, Any]:
     M, K = num.M[k], num.Kmat[k]
     return {
         "scene": scene.name, "params": scene.params(), "transfer": scene.transfer.kind,
-        "dt": scene.dt, "dofs": list(scene.dofs), "versions": _versions(),
+        "dt": scene.dt, "dofs": list(scene.dofs), "versions": dict(_versions()),
         "numerical": num.meta(k),
         "experiment": {"kind": e.kind, "m_exp": e.m, "k_exp": k_exp, "m_exp_matrix": m_exp,
                        "d_exp": e.d, "h0": e.h0 if e.kind != "linear" else None,
@@ -178,12 +180,16 @@ def _meta(scene: Scene, num, k: int, transfer_meta: dict) -> dict[str, Any]:
 
 
 def _columns(dofs: Sequence[str], n: int, stewart: bool) -> list[str]:
+    # everything written per step is contiguous (one row assignment in the fast kernel)
     cols = ["t"]
-    for sig in ("z_cmd", "z_meas", "f_meas", "f_ext", "z_ref"):
+    for sig in ("z_cmd", "z_meas", "f_meas"):
         cols += [f"{sig}.{d}" for d in dofs]
-    cols += [f"x_num.{i}" for i in range(n)] + [f"x_ref.{i}" for i in range(n)]
+    cols += [f"x_num.{i}" for i in range(n)]
     if stewart:
         cols += [f"pose_cmd.{d}" for d in DOFS] + [f"pose_meas.{d}" for d in DOFS]
+    for sig in ("f_ext", "z_ref"):
+        cols += [f"{sig}.{d}" for d in dofs]
+    cols += [f"x_ref.{i}" for i in range(n)]
     return cols
 
 
@@ -217,7 +223,7 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
     s_zc = slice(ci[f"z_cmd.{base.dofs[0]}"], ci[f"z_cmd.{base.dofs[0]}"] + nd)
     s_zm = slice(s_zc.start + nd, s_zc.start + 2 * nd)
     s_fm = slice(s_zc.start + 2 * nd, s_zc.start + 3 * nd)
-    s_fe = slice(s_zc.start + 3 * nd, s_zc.start + 4 * nd)
+    s_fe = slice(ci[f"f_ext.{base.dofs[0]}"], ci[f"f_ext.{base.dofs[0]}"] + nd)
     s_x = slice(ci["x_num.0"], ci["x_num.0"] + num.n)
     if stewart:
         s_pc = slice(ci["pose_cmd.x"], ci["pose_cmd.x"] + 6)
@@ -237,8 +243,18 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
     active = np.ones(K, dtype=bool)
     transfer.reset()
     f = np.zeros((K, nd))
-    t0 = time.perf_counter()
     every = control.every if control is not None else 0
+    kernel = _fast_kernel(num, transfer, base, ci) if K == 1 else None
+    if kernel is not None:
+        steps_done, wall = _run_kernel(kernel, num, transfer, base, data, buffers, control,
+                                       every, halt_info := {})
+        if halt_info:
+            active[0] = False
+            stop_row[0] = halt_info["row"]
+            reasons[0] = halt_info["reason"]
+        return _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons,
+                       active, steps_done, wall, reference, stewart, specimen, nthread)
+    t0 = time.perf_counter()
     pbar = None
     if progress:
         from tqdm import tqdm
@@ -292,6 +308,14 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
                                         math.nan, (n + 1) * dt, int(k)), n)
                 reasons[k] = transfer.reasons[k]
         f = transfer.f_meas
+        row = data[n + 1]
+        row[:, s_zc] = z
+        row[:, s_zm] = transfer.z_meas
+        row[:, s_fm] = f
+        row[:, s_x] = num.x
+        if stewart:
+            row[:, s_pc] = transfer.pose_cmd
+            row[:, s_pm] = transfer.pose_meas
         if (np.abs(f) > lim_f).any():
             for k in np.flatnonzero(active):
                 for j, d in enumerate(base.dofs):
@@ -303,14 +327,6 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
                         break
             if not active.any():
                 break
-        row = data[n + 1]
-        row[:, s_zc] = z
-        row[:, s_zm] = transfer.z_meas
-        row[:, s_fm] = f
-        row[:, s_x] = num.x
-        if stewart:
-            row[:, s_pc] = transfer.pose_cmd
-            row[:, s_pm] = transfer.pose_meas
         if every and (n % every == 0):
             for b in buffers:
                 b.n = n + 2
@@ -329,9 +345,75 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
     wall = time.perf_counter() - t0
     if pbar is not None:
         pbar.close()
+    return _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, active,
+                   n + 1, wall, reference, stewart, specimen, nthread)
+
+
+def _run_kernel(kernel, num, transfer, base: Scene, data, buffers, control, every, halt_info):
+    """Run the generated single-test kernel; fill ``halt_info`` on a stop."""
+    N = base.n_steps
+    dt = base.dt
+    P = num.P[0].tolist()
+    D = data[:, 0, :]
+    t0 = time.perf_counter()
+
+    def ctl(n: int) -> bool:
+        if control.stopped:
+            return True
+        control.wait()
+        if control.realtime:
+            ahead = (n + 1) * dt - (time.perf_counter() - t0)
+            if ahead > 0:
+                time.sleep(ahead)
+        return False
+
+    sim = getattr(transfer, "sim", None)
+    dl = [0.0] * (transfer.delay_line.size if getattr(transfer, "delay_line", None) else 1)
+    try:
+        n_done, code, j, val = kernel(N, P, D, sim, ctl, every, buffers, dl)
+    except SafetyStop as stop:
+        n_done = int(round(stop.t / dt)) if math.isfinite(stop.t) else 0
+        n_done = max(0, min(n_done, N) - 1)
+        halt_info.update(row=n_done, reason=SafetyStop(stop.quantity, stop.value, stop.limit,
+                                                       (n_done + 1) * dt, 0, stop.unit).reason)
+        return n_done + 1, time.perf_counter() - t0
+    wall = time.perf_counter() - t0
+    if code is not None:
+        d = base.dofs[j] if code != "x" else str(j)
+        rot = d.startswith("r")
+        saf = base.safety
+        t = (n_done + 1) * dt if code != "f" else n_done * dt
+        if code == "x":
+            stop = SafetyStop("divergence: numerical displacement |x|", abs(val),
+                              saf.divergence, t, 0, "m")
+            row = n_done
+        elif code == "z":
+            stop = SafetyStop(f"stroke: commanded {d}", val, saf.rotation if rot else saf.stroke,
+                              t, 0, "rad" if rot else "m")
+            row = n_done
+        elif code == "v":
+            stop = SafetyStop(f"velocity: commanded {d} rate", val, saf.velocity, t, 0, "m/s")
+            row = n_done
+        elif code == "f":
+            what = "torque" if rot else "force"
+            stop = SafetyStop(f"FTS range: measured {what} {d}", val,
+                              saf.torque if rot else saf.force, t, 0, "N·m" if rot else "N")
+            row = n_done
+        else:
+            halt_info.update(row=n_done, reason=f"stopped by the user at t = {n_done * dt:.3f} s")
+            return n_done, wall
+        halt_info.update(row=row, reason=stop.reason)
+    return n_done, wall
+
+
+def _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, active,
+            steps_done, wall, reference, stewart, specimen, nthread) -> list[RunResult]:
+    base = scenes[0]
+    K = len(scenes)
+    dt = base.dt
+    N = base.n_steps
     for b in buffers:
         b.n = N + 1
-    steps_done = n + 1
     rtf = steps_done * dt / wall if wall > 0 else math.inf
     if reference:
         from .reference import reference_solution
@@ -340,7 +422,7 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
         # MuJoCo part, on the fast path the numpy one (documented in docs/loop.md)
         rspec = "mujoco" if (stewart or specimen == "mujoco") else "auto"
         ref = reference_solution(scenes, nthread=nthread, specimen=rspec)
-        s_zr = slice(s_zc.start + 4 * nd, s_zc.start + 5 * nd)
+        s_zr = slice(ci[f"z_ref.{base.dofs[0]}"], ci[f"z_ref.{base.dofs[0]}"] + nd)
         s_xr = slice(ci["x_ref.0"], ci["x_ref.0"] + num.n)
         data[:, :, s_zr] = ref["z_ref"].transpose(1, 0, 2)
         data[:, :, s_xr] = ref["x_ref"].transpose(1, 0, 2)
@@ -424,3 +506,162 @@ def run_batch(scene: Scene, param_sets: Sequence[Mapping[str, Any]], transfer: s
             for i, r in zip(part, res, strict=True):
                 results[i] = r
     return results  # type: ignore[return-value]
+
+
+# ---------------------------------------------------------------------------- one test, fast
+def _f(x: float) -> str:
+    return repr(float(x))
+
+
+def _fast_kernel(num, transfer, base: Scene, ci: dict[str, int]):
+    """A generated, fully unrolled single-test loop over Python floats, or None.
+
+    The hot path of one test (K = 1) is dominated by per-call overhead, not arithmetic:
+    small-array numpy costs ~1 µs per operation. This kernel unrolls the numerical
+    recurrence, the compensation, the delay line, the LTI actuator and the numpy specimen
+    (or calls the single :class:`~rths3d.platform.sim.PlatformSim`) into straight-line float
+    code with every matrix entry a literal. It is the same algorithm as the batched path
+    (checked bit-for-bit-close in tests/test_loop.py).
+    """
+    from .experiment.specimen import Specimen1D
+    from .transfer.systems import ActuatorTransfer, StewartTransfer
+
+    tr = base.transfer
+    nd = len(base.dofs)
+    S = num.s.shape[1]
+    n = num.n
+    if num.K_tests != 1 or tr.compensation not in ("none", "velocity"):
+        return None
+    stewart = isinstance(transfer, StewartTransfer)
+    if stewart:
+        if not transfer.single or not transfer.sensor.ideal:
+            return None
+    elif not (isinstance(transfer, ActuatorTransfer) and isinstance(transfer.specimen, Specimen1D)
+              and transfer.sensor.ideal and nd == 1):
+        return None
+    Ad = num.Ad[0]
+    Bf = num.Bf_hold[0]
+    Czx, Czv = num.Czx, num.Czv
+    saf = base.safety
+    L: list[str] = []
+    a = L.append
+    a("def kernel(N, P, D, sim, ctl, every, buffers, dl):")
+    a("    " + "; ".join(f"s{i} = 0.0" for i in range(S)))
+    a("    " + "; ".join(f"f{j} = 0.0" for j in range(nd)))
+    lti = None if stewart else transfer.lti
+    dline = None if stewart else transfer.delay_line
+    if lti is not None:
+        ns_a = lti.ns
+        if ns_a:
+            a("    " + "; ".join(f"xa{i} = 0.0" for i in range(ns_a)))
+    if dline is not None:
+        a("    bi = 0")
+    if not stewart:
+        sp = transfer.specimen
+        a("    xe = 0.0; ve = 0.0; zp = 0.0")
+    if stewart:
+        a("    sim_step = sim.step")
+        a("    Sim = type(sim)")
+        a("    pose_get = Sim.pose.fget; wrench_get = Sim.interface_wrench.fget")
+    a("    for n in range(N):")
+    a("        p = P[n]")
+    for i in range(S):
+        terms = [f"{_f(Ad[i, j])} * s{j}" for j in range(S) if Ad[i, j] != 0.0]
+        terms += [f"p[{i}]"]
+        terms += [f"{_f(-Bf[i, j])} * f{j}" for j in range(nd) if Bf[i, j] != 0.0]
+        a(f"        n{i} = " + " + ".join(terms))
+    a("        " + "; ".join(f"s{i} = n{i}" for i in range(S)))
+    for j in range(nd):
+        tz = [f"{_f(Czx[j, i])} * s{i}" for i in range(S) if Czx[j, i] != 0.0] or ["0.0"]
+        tv = [f"{_f(Czv[j, i])} * s{i}" for i in range(S) if Czv[j, i] != 0.0] or ["0.0"]
+        a(f"        z{j} = " + " + ".join(tz))
+        a(f"        v{j} = " + " + ".join(tv))
+    is_rot = [d.startswith("r") for d in base.dofs]
+    # x = C_x s = s[:n] for both integrators
+    for i in range(n):
+        a(f"        if not (-{_f(saf.divergence)} <= s{i} <= {_f(saf.divergence)}): "
+          f"return n, 'x', {i}, s{i}")
+    for j in range(nd):
+        lz = saf.rotation if is_rot[j] else saf.stroke
+        a(f"        if not (-{_f(lz)} <= z{j} <= {_f(lz)}): return n, 'z', {j}, z{j}")
+        if not is_rot[j]:
+            a(f"        if not (-{_f(saf.velocity)} <= v{j} <= {_f(saf.velocity)}): "
+              f"return n, 'v', {j}, v{j}")
+    for j in range(nd):
+        if tr.compensation == "velocity" and tr.comp_time:
+            a(f"        u{j} = z{j} + {_f(tr.comp_time)} * v{j}")
+        else:
+            a(f"        u{j} = z{j}")
+    if stewart:
+        cmd = ["0.0"] * 6
+        for j, d in enumerate(base.dofs):
+            cmd[DOFS.index(d)] = f"u{j}"
+        a(f"        sim_step({', '.join(cmd)})")
+        a("        pm = pose_get(sim); w = wrench_get(sim)")
+        for j, d in enumerate(base.dofs):
+            k = DOFS.index(d)
+            a(f"        m{j} = pm[{k}]; f{j} = w[{k}]")
+    else:
+        if dline is not None:
+            d0, fr, sz = dline.d0, dline.frac, dline.size
+            a("        dl[bi] = u0")
+            if fr:
+                a(f"        u0 = dl[(bi - {d0}) % {sz}] * {_f(1 - fr)} + "
+                  f"dl[(bi - {d0 + 1}) % {sz}] * {_f(fr)}")
+            else:
+                a(f"        u0 = dl[(bi - {d0}) % {sz}]")
+            a(f"        bi = (bi + 1) % {sz}")
+        if lti is not None:
+            A_ = lti.AdT.T
+            for i in range(lti.ns):
+                terms = [f"{_f(A_[i, j])} * xa{j}" for j in range(lti.ns) if A_[i, j] != 0.0]
+                terms.append(f"{_f(lti.Bd[i])} * u0")
+                a(f"        y{i} = " + " + ".join(terms))
+            if lti.ns:
+                a("        " + "; ".join(f"xa{i} = y{i}" for i in range(lti.ns)))
+            out = [f"{_f(lti.Cd[i])} * xa{i}" for i in range(lti.ns)]
+            if lti.Dd:
+                out.append(f"{_f(lti.Dd)} * u0")
+            a("        m0 = " + (" + ".join(out) if out else "0.0"))
+        else:
+            a("        m0 = u0")
+        m, k, dd = float(sp.m[0]), float(sp.k[0]), float(sp.d[0])
+        h0, kc, dc = float(sp.h0[0]), float(sp.kc[0]), float(sp.dc[0])
+        nsub = sp.substeps
+        h = sp.dt / nsub
+        a(f"        vm = (m0 - zp) * {_f(1.0 / sp.dt)}; dz = (m0 - zp) * {_f(1.0 / nsub)}")
+        a(f"        for j in range({nsub}):")
+        a("            zm = zp + j * dz")
+        if np.isfinite(h0):
+            a(f"            if xe > {_f(h0)}:")
+            a(f"                fc = {_f(kc)} * (xe - {_f(h0)}) + {_f(dc)} * ve")
+            a("                if fc < 0.0: fc = 0.0")
+            a("            else:")
+            a("                fc = 0.0")
+            fc = " - fc"
+        else:
+            fc = ""
+        a(f"            ve += ({_f(k)} * (zm - xe) + {_f(dd)} * (vm - ve){fc}) * {_f(h / m)}")
+        a(f"            xe += ve * {_f(h)}")
+        a("        zp = m0")
+        a(f"        f0 = {_f(k)} * (m0 - xe) + {_f(dd)} * (vm - ve)")
+    zc0 = ci[f"z_cmd.{base.dofs[0]}"]
+    vals = [f"z{j}" for j in range(nd)] + [f"m{j}" for j in range(nd)] + \
+        [f"f{j}" for j in range(nd)] + [f"s{i}" for i in range(n)]
+    end = zc0 + 3 * nd + n
+    if stewart:
+        vals += cmd
+        end += 12
+        a(f"        D[n + 1, {zc0}:{end}] = ({', '.join(vals)},) + pm")
+    else:
+        a(f"        D[n + 1, {zc0}:{end}] = ({', '.join(vals)},)")
+    for j in range(nd):
+        lf = saf.torque if is_rot[j] else saf.force
+        a(f"        if not (-{_f(lf)} <= f{j} <= {_f(lf)}): return n + 1, 'f', {j}, f{j}")
+    a("        if every and n % every == 0:")
+    a("            for b in buffers: b.n = n + 2")
+    a("            if ctl(n): return n + 1, 'user', 0, 0.0")
+    a("    return N, None, 0, 0.0")
+    env: dict[str, Any] = {}
+    exec(compile("\n".join(L), "<rths3d.loop single-test kernel>", "exec"), env)
+    return env["kernel"]

@@ -69,6 +69,22 @@ def discretise(M: np.ndarray, C: np.ndarray, K: np.ndarray, dt: float,
     raise ConfigError("numerical.integrator", method, "must be 'exact' or 'central_difference'")
 
 
+def _exact_batch(M: np.ndarray, C: np.ndarray, K: np.ndarray, dt: float
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``exact`` discretisation of K substructures at once (stacked matrix exponentials)."""
+    nt, n = M.shape[0], M.shape[1]
+    Minv = np.linalg.inv(M)
+    S = 2 * n
+    aug = np.zeros((nt, S + 2 * n, S + 2 * n))
+    aug[:, :n, n:S] = np.eye(n) * dt
+    aug[:, n:S, :n] = -(Minv @ K) * dt
+    aug[:, n:S, n:S] = -(Minv @ C) * dt
+    aug[:, n:S, S:S + n] = Minv * dt
+    aug[:, S:S + n, S + n:] = np.eye(n)
+    E = scipy.linalg.expm(aug)
+    return E[:, :S, :S], E[:, :S, S:S + n], E[:, :S, S + n:]
+
+
 class NumericalSubstructure(Protocol):
     """What the loop needs from a numerical substructure (linear or a user's nonlinear one).
 
@@ -125,13 +141,21 @@ class LinearSubstructure:
         self.dt = float(dt)
         self.method = method
         self.M, self.C, self.Kmat = M, C, K
-        shared = all(np.array_equal(a[0], a[i]) for a in (M, C, K) for i in range(1, len(a)))
-        ds = [discretise(M[i], C[i], K[i], dt, method) for i in range(1 if shared else len(M))]
+        shared = bool(np.all(M == M[:1]) and np.all(C == C[:1]) and np.all(K == K[:1]))
         self.shared = shared
-        stack = lambda name: np.stack([getattr(d, name) for d in ds])  # noqa: E731
-        self.Ad, self.G1, self.G2 = stack("Ad"), stack("G1"), stack("G2")
-        self.Cx, self.Cv = ds[0].Cx, ds[0].Cv
-        self.s0_from_a0 = ds[0].s0_from_a0
+        if method == "exact" and not shared:
+            self.Ad, self.G1, self.G2 = _exact_batch(M, C, K, dt)
+            n = M.shape[1]
+            self.Cx = np.hstack([np.eye(n), np.zeros((n, n))])
+            self.Cv = np.hstack([np.zeros((n, n)), np.eye(n)])
+            self.s0_from_a0 = False
+        else:
+            ds = [discretise(M[i], C[i], K[i], dt, method)
+                  for i in range(1 if shared else len(M))]
+            stack = lambda name: np.stack([getattr(d, name) for d in ds])  # noqa: E731
+            self.Ad, self.G1, self.G2 = stack("Ad"), stack("G1"), stack("G2")
+            self.Cx, self.Cv = ds[0].Cx, ds[0].Cv
+            self.s0_from_a0 = ds[0].s0_from_a0
         G = self.gamma
         # Force input maps (S × n_if): held force (loop) and interpolated force (reference).
         self.Bf_hold = self.G1 @ G

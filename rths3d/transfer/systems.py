@@ -188,16 +188,17 @@ def build_transfer(scene: Scene, K: int, experiments=None, nthread: int = 0,
 
         spec = MujocoSpecimen(list(exps), scene.dofs, scene.dt, nthread=nthread)
     meta: dict = {"specimen": "numpy" if use_numpy else "mujoco"}
+    delay_line = lti_act = None
     if tr.kind == "ideal":
         act = None
     elif tr.kind == "delay":
-        act = DelayLine(K, n_if, tr.delay, scene.dt)
+        act = delay_line = DelayLine(K, n_if, tr.delay, scene.dt)
         meta["delay"] = tr.delay
     else:
         num, den = (tr.num, tr.den) if tr.num else default_transfer_function()[:2]
-        act = LTIActuator(K, n_if, num, den, scene.dt)
+        act = lti_act = LTIActuator(K, n_if, num, den, scene.dt)
         if tr.delay > 0:
-            delay = DelayLine(K, n_if, tr.delay, scene.dt)
+            delay = delay_line = DelayLine(K, n_if, tr.delay, scene.dt)
             lti = act
 
             def act(u, _d=delay, _l=lti):
@@ -214,7 +215,9 @@ def build_transfer(scene: Scene, K: int, experiments=None, nthread: int = 0,
     s = scene.sensor
     sensor = SensorModel(K, n_if, scene.dt, s.kind, s.time_constant, s.noise_std, s.gain,
                          s.offset, s.delay, s.seed)
-    return ActuatorTransfer(tr.kind, K, n_if, act, spec, comp, sensor, meta)
+    out = ActuatorTransfer(tr.kind, K, n_if, act, spec, comp, sensor, meta)
+    out.delay_line, out.lti = delay_line, lti_act  # the parts, for the single-test kernel
+    return out
 
 
 __all__ = ["ActuatorTransfer", "SafetyStop", "StewartTransfer", "TransferSystem",

@@ -1,0 +1,87 @@
+"""Speed of the vRTHS loop on the paper's contact test (10 s simulated, ΔT = 1 ms).
+
+Prints ONE JSON line:
+  rtf_stewart        one test on the MuJoCo Stewart platform (simulated s per wall s)
+  stewart_over_bare  wall time of that whole loop over bare mj_step of the same model
+  rtf_lti            one test on the 1-D LTI path (LTI actuator + numpy specimen)
+  rtf_reference      the reference solution z^r of one test
+  batch_rtf_stewart  K_stewart tests stepped together on the platform (aggregate)
+  batch_rtf_lti      K_lti tests stepped together on the LTI path (aggregate)
+Medians over repeats; ratios measured side by side in one run. ``--quick``: 2 s tests, one
+repeat (figures noisier).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="2 s tests, one repeat")
+    ap.add_argument("--k-stewart", type=int, default=64)
+    ap.add_argument("--k-lti", type=int, default=1024)
+    args = ap.parse_args()
+
+    import mujoco
+
+    from rths3d.loop import run, run_batch
+    from rths3d.reference import reference_solution
+    from rths3d.scene import load_scene
+
+    duration = 2.0 if args.quick else 10.0
+    reps = 1 if args.quick else 3
+    sc = load_scene(REPO / "scenes" / "paper_contact.toml", [f"duration={duration}"])
+    med = statistics.median
+
+    rtf_st, ratio, rtf_lti = [], [], []
+    for _ in range(reps):
+        r = run(sc, "stewart", reference=False)
+        rtf_st.append(r.rtf)
+        # bare mj_step of the same model (same number of physics steps), measured right after
+        from rths3d.transfer.systems import StewartTransfer
+
+        tr = StewartTransfer(sc, 1)
+        m, d = tr.sim.model, tr.sim.data
+        nstep = sc.n_steps * sc.transfer.substeps
+        t0 = time.perf_counter()
+        step = mujoco.mj_step
+        for _ in range(nstep):
+            step(m, d)
+        bare = time.perf_counter() - t0
+        ratio.append(r.wall / bare)
+        rtf_lti.append(run(sc, "lti", reference=False).rtf)
+    t0 = time.perf_counter()
+    reference_solution([sc])
+    rtf_ref = sc.duration / (time.perf_counter() - t0)
+
+    def batch(kind: str, K: int) -> float:
+        sets = [{"numerical.k": 1e3 + 100.0 * i} for i in range(K)]
+        t0 = time.perf_counter()
+        res = run_batch(sc, sets, kind, reference=False, max_k=K)
+        wall = time.perf_counter() - t0
+        assert all(x.status == "ok" for x in res), [x.reason for x in res if x.reason][:1]
+        return K * sc.duration / wall
+
+    b_st = med([batch("stewart", args.k_stewart) for _ in range(reps)])
+    b_lti = med([batch("lti", args.k_lti) for _ in range(reps)])
+    print(json.dumps({
+        "rtf_stewart": round(med(rtf_st), 2),
+        "stewart_over_bare": round(med(ratio), 3),
+        "rtf_lti": round(med(rtf_lti), 2),
+        "rtf_reference": round(rtf_ref, 2),
+        "batch_rtf_stewart": round(b_st, 1),
+        "batch_rtf_lti": round(b_lti, 1),
+        "k_stewart": args.k_stewart, "k_lti": args.k_lti, "duration_s": duration,
+        "quick": args.quick,
+    }))
+
+
+if __name__ == "__main__":
+    main()
