@@ -27,12 +27,13 @@ positive F'_m resists a positive z).
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import RecordError
 from ._signals import as_pair, as_signal, check_dt, out, ratio
 
 
-def work(force, disp) -> float | np.ndarray:
+def work(force: ArrayLike, disp: ArrayLike) -> float | np.ndarray:
     """Trapezoidal work ∫ F dz per DOF (J). ``force`` and ``disp`` (N,) or (N, ndof)."""
     f, z, one = as_pair(force, disp, ("force", "displacement"), min_samples=2)
     dz = np.diff(z, axis=0)
@@ -40,20 +41,20 @@ def work(force, disp) -> float | np.ndarray:
                one)
 
 
-def e_error(z, z_meas, f_meas) -> float | np.ndarray:
+def e_error(z: ArrayLike, z_meas: ArrayLike, f_meas: ArrayLike) -> float | np.ndarray:
     """Error energy E_error = ∫ F'_m dz − ∫ F'_m dz' (eq. 9), per DOF, in J."""
     a, b, one = as_pair(z, z_meas, ("z", "z_meas"), min_samples=2)
     f, _, _ = as_pair(f_meas, a, ("f_meas", "z"), min_samples=2)
     return out(np.asarray(work(f, a - b), dtype=float).reshape(-1), one)
 
 
-def e_input(z, f_ext) -> float | np.ndarray:
+def e_input(z: ArrayLike, f_ext: ArrayLike) -> float | np.ndarray:
     """Input energy E_input = ∫ F_ext^NUM dz (eq. 10), per DOF, in J."""
     f, a, one = as_pair(f_ext, z, ("f_ext", "z"), min_samples=2)
     return out(np.asarray(work(f, a), dtype=float).reshape(-1), one)
 
 
-def e_strain(z_meas, k_exp) -> float:
+def e_strain(z_meas: ArrayLike, k_exp: ArrayLike) -> float:
     """Maximum strain energy E_strain = max_t ½ z'(t)ᵀ k_EXP z'(t) (eq. 10), in J.
 
     ``k_exp`` is a scalar (one DOF, N/m or N·m/rad) or the (ndof, ndof) interface stiffness
@@ -72,12 +73,12 @@ def e_strain(z_meas, k_exp) -> float:
     return float(np.max(energy))
 
 
-def hsem_s(e_err, e_str) -> float | np.ndarray:
+def hsem_s(e_err: ArrayLike, e_str: ArrayLike) -> float | np.ndarray:
     """HSEM^S = E_error / E_strain (eq. 11), dimensionless; NaN if E_strain = 0."""
     return _scalar_or_array(ratio(e_err, e_str))
 
 
-def hsem_i(e_err, e_str, e_in) -> float | np.ndarray:
+def hsem_i(e_err: ArrayLike, e_str: ArrayLike, e_in: ArrayLike) -> float | np.ndarray:
     """HSEM^I = E_error / (E_strain + E_input) (eq. 11), dimensionless; NaN if the sum is 0."""
     return _scalar_or_array(ratio(e_err, np.asarray(e_str) + np.asarray(e_in)))
 
@@ -86,8 +87,10 @@ def _scalar_or_array(x: np.ndarray) -> float | np.ndarray:
     return float(x) if np.ndim(x) == 0 else x
 
 
-def energy_balance_residual(x, M, C, K, p, gamma, f_meas, z_meas, dt: float,
-                            v=None) -> np.ndarray:
+def energy_balance_residual(x: ArrayLike, M: ArrayLike, C: ArrayLike, K: ArrayLike,
+                            p: ArrayLike, gamma: ArrayLike, f_meas: ArrayLike,
+                            z_meas: ArrayLike, dt: float,
+                            v: ArrayLike | None = None) -> np.ndarray:
     """Running residual R(t) of the hybrid test's energy balance (J), R(t_0) = 0.
 
     Parameters
@@ -147,7 +150,7 @@ def eei(residual: float, e_str: float) -> float:
     return float(ratio(residual, e_str))
 
 
-def hsem(f_meas, z, z_meas, k_exp) -> float:
+def hsem(f_meas: ArrayLike, z: ArrayLike, z_meas: ArrayLike, k_exp: ArrayLike) -> float:
     """HSEM^S of one record in one call: E_error(z, z', F'_m) / E_strain(z', k_EXP).
 
     Signals (N,) or (N, ndof); energies summed over DOFs. Dimensionless; NaN if E_strain = 0.

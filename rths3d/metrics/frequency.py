@@ -28,6 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ._signals import as_pair, check_dt
 from .tracking import one_sided_amplitude
@@ -66,7 +67,7 @@ def fei_spectra(z_spec: np.ndarray, zp_spec: np.ndarray, freqs: np.ndarray,
     return fei, f_eq
 
 
-def fei(z, z_meas, dt: float, l: float = 2.0) -> FEIResult:
+def fei(z: ArrayLike, z_meas: ArrayLike, dt: float, l: float = 2.0) -> FEIResult:
     """Frequency Evaluation Index of commanded z against achieved z' (eqs. 5–8).
 
     Parameters

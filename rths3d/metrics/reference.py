@@ -18,6 +18,7 @@ not silently truncated.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ._signals import as_pair, out, peak, ratio, rms
 from .tracking import one_sided_amplitude, spectral_rel_error
@@ -27,26 +28,27 @@ def _pair(z_ref, z_test):
     return as_pair(z_ref, z_test, ("z_ref", "z_meas"))
 
 
-def e_rel_ref(z_ref, z_test) -> float | np.ndarray:
+def e_rel_ref(z_ref: ArrayLike, z_test: ArrayLike) -> float | np.ndarray:
     """Relative RMS reference error e_rel,ref = RMS(z^r − z') / RMS(z^r) (eq. 1 with z^r)."""
     r, y, one = _pair(z_ref, z_test)
     return out(ratio(rms(r - y), rms(r)), one)
 
 
-def e_mre_ref(z_ref, z_test) -> float | np.ndarray:
+def e_mre_ref(z_ref: ArrayLike, z_test: ArrayLike) -> float | np.ndarray:
     """Maximum reference error e_MRE,ref = max|z^r − z'| / max|z^r| (eq. 2 with z^r)."""
     r, y, one = _pair(z_ref, z_test)
     return out(ratio(peak(r - y), peak(r)), one)
 
 
-def e_peak_ref(z_ref, z_test) -> float | np.ndarray:
+def e_peak_ref(z_ref: ArrayLike, z_test: ArrayLike) -> float | np.ndarray:
     """Peak reference error e_peak,ref = |max|z^r| − max|z'|| / max|z^r| (eq. 3 with z^r)."""
     r, y, one = _pair(z_ref, z_test)
     pr = peak(r)
     return out(ratio(np.abs(pr - peak(y)), pr), one)
 
 
-def e_rel_ref_f(z_ref, z_test, *, magnitude_only: bool = False) -> float | np.ndarray:
+def e_rel_ref_f(z_ref: ArrayLike, z_test: ArrayLike, *,
+                magnitude_only: bool = False) -> float | np.ndarray:
     """Relative RMS reference error in the frequency domain e_rel,ref,f (eq. 4 with z^r).
 
     RMS(|Z^r − Z'|) / RMS(|Z^r|) over the one-sided bins; ``magnitude_only=True`` uses

@@ -11,11 +11,12 @@ phase.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ._signals import as_pair, col_mean, out
 
 
-def ti_history(z, z_meas) -> np.ndarray:
+def ti_history(z: ArrayLike, z_meas: ArrayLike) -> np.ndarray:
     """Running tracking indicator TI(t) of Mercan & Ricles, same shape as z.
 
     TI = ½ (A − TA), A = ∫ z' dz, TA = ∫ z dz' (cumulative trapezoidal sums, TI(t_0) = 0).
@@ -31,7 +32,7 @@ def ti_history(z, z_meas) -> np.ndarray:
     return hist[:, 0] if one else hist
 
 
-def ti(z, z_meas) -> float | np.ndarray:
+def ti(z: ArrayLike, z_meas: ArrayLike) -> float | np.ndarray:
     """Tracking indicator TI at the end of the record (see :func:`ti_history`), (unit of z)²."""
     a, b, one = as_pair(z, z_meas, ("z", "z_meas"), min_samples=2)
     return out(0.5 * np.einsum("ij,ij->j", b[:-1], a[1:]) -
@@ -46,7 +47,7 @@ def _moments(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
             np.einsum("ij,ij->j", bm, bm) / n)
 
 
-def theta_pc(z, z_meas) -> float | np.ndarray:
+def theta_pc(z: ArrayLike, z_meas: ArrayLike) -> float | np.ndarray:
     """Amplitude indicator Θ_PC: slope of the SSP's major axis, tan θ (dimensionless).
 
     θ is the angle of the first principal component of the centred samples (z, z'),
@@ -132,7 +133,7 @@ def _paei_one(x: np.ndarray, y: np.ndarray, area_sign: float) -> tuple[float, fl
     return (phase if area_sign <= 0 else -phase), amp
 
 
-def paei(z, z_meas) -> tuple[float | np.ndarray, float | np.ndarray]:
+def paei(z: ArrayLike, z_meas: ArrayLike) -> tuple[float | np.ndarray, float | np.ndarray]:
     """Phase and Amplitude Error Indices (Mercan's PAEI) by an ellipse fit to the SSP.
 
     Fits z = A sin θ, z' = B sin(θ − φ) to the whole record by a direct least-squares
@@ -156,8 +157,8 @@ def paei(z, z_meas) -> tuple[float | np.ndarray, float | np.ndarray]:
     return out(ph, one), out(am, one)
 
 
-def paei_history(z, z_meas, dt: float, window: float, step: float | None = None
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def paei_history(z: ArrayLike, z_meas: ArrayLike, dt: float, window: float,
+                 step: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """PAEI on a moving window, as Mercan's indices are used online.
 
     Parameters

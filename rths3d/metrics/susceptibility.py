@@ -37,6 +37,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import ConfigError
 
@@ -78,7 +79,7 @@ def damping_ratio(d_num: float, k_num: float, m_num: float) -> float:
                                 _positive("m_num", m_num, "kg")))
 
 
-def eigenfrequencies(M, K) -> np.ndarray:
+def eigenfrequencies(M: ArrayLike, K: ArrayLike) -> np.ndarray:
     """Undamped eigenfrequencies ω (rad/s, ascending) from K v = ω² M v (M positive definite)."""
     import scipy.linalg
 
@@ -91,7 +92,7 @@ def eigenfrequencies(M, K) -> np.ndarray:
     return np.sqrt(np.clip(lam, 0.0, None))
 
 
-def fastest_mode(M, C, K) -> tuple[float, float]:
+def fastest_mode(M: ArrayLike, C: ArrayLike, K: ArrayLike) -> tuple[float, float]:
     """(ω_max in rad/s, modal damping ratio ζ of that mode) of M ẍ + C ẋ + K x = 0."""
     import scipy.linalg
 
@@ -105,7 +106,7 @@ def fastest_mode(M, C, K) -> tuple[float, float]:
     return w, zeta
 
 
-def omega_num(M, K) -> float:
+def omega_num(M: ArrayLike, K: ArrayLike) -> float:
     """ω_0,NUM (rad/s): fastest eigenfrequency of the numerical substructure (eq. 13)."""
     return float(eigenfrequencies(M, K)[-1])
 
@@ -118,7 +119,8 @@ def _gamma(gamma, n: int, nd: int | None = None) -> np.ndarray:
     return g
 
 
-def omega_dyn(M, K, M_exp, K_exp, gamma=None) -> float:
+def omega_dyn(M: ArrayLike, K: ArrayLike, M_exp: ArrayLike, K_exp: ArrayLike,
+              gamma: ArrayLike | None = None) -> float:
     """ω_0,DYN (rad/s): fastest eigenfrequency of the coupled system (eq. 12).
 
     Coupled mass M + Γ M_EXP Γᵀ and stiffness K + Γ K_EXP Γᵀ; for one DOF
@@ -132,7 +134,8 @@ def omega_dyn(M, K, M_exp, K_exp, gamma=None) -> float:
     return omega_num(m + g @ me @ g.T, _mat("K", K, n) + g @ ke @ g.T)
 
 
-def interface_properties(M, K, gamma=None) -> tuple[np.ndarray, np.ndarray]:
+def interface_properties(M: ArrayLike, K: ArrayLike, gamma: ArrayLike | None = None
+                         ) -> tuple[np.ndarray, np.ndarray]:
     """Mass Γ_iᵀ M Γ_i (kg) and static stiffness 1/(Γ_iᵀ K⁻¹ Γ_i) (N/m) per interface DOF i."""
     m = _mat("M", M)
     k = _mat("K", K, m.shape[0])
@@ -201,7 +204,8 @@ def _loop_eigs(w: np.ndarray, m, c, k, me, ce, ke, g) -> np.ndarray:
     return np.linalg.eigvals(q @ (g.T @ np.linalg.solve(p, gb)))
 
 
-def interface_loop(M, C, K, M_exp, C_exp, K_exp, gamma=None, *,
+def interface_loop(M: ArrayLike, C: ArrayLike, K: ArrayLike, M_exp: ArrayLike,
+                   C_exp: ArrayLike, K_exp: ArrayLike, gamma: ArrayLike | None = None, *,
                    n_grid: int = 2000) -> InterfaceLoop:
     """Crossovers, phase margins and critical delay of the coupled linear system.
 

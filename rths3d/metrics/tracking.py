@@ -15,6 +15,7 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ._signals import as_pair, out, peak, ratio, rms
 
@@ -31,7 +32,7 @@ def _norm_signal(z: np.ndarray, zp: np.ndarray, norm: str) -> np.ndarray:
     raise ConfigError("norm", norm, "must be 'commanded' or 'measured'")
 
 
-def e_rel_track(z, z_meas, norm: Norm = "commanded") -> float | np.ndarray:
+def e_rel_track(z: ArrayLike, z_meas: ArrayLike, norm: Norm = "commanded") -> float | np.ndarray:
     """Relative RMS tracking error e_rel,track = RMS(z − z') / RMS(z), eq. (1).
 
     Parameters
@@ -48,7 +49,7 @@ def e_rel_track(z, z_meas, norm: Norm = "commanded") -> float | np.ndarray:
     return out(ratio(rms(a - b), rms(_norm_signal(a, b, norm))), one)
 
 
-def e_mte_track(z, z_meas, norm: Norm = "measured") -> float | np.ndarray:
+def e_mte_track(z: ArrayLike, z_meas: ArrayLike, norm: Norm = "measured") -> float | np.ndarray:
     """Maximum tracking error e_MTE,track = max|z − z'| / max|z'|, eq. (2).
 
     Normalised by the achieved z' (paper feature, default) or by z (``norm="commanded"``).
@@ -58,7 +59,7 @@ def e_mte_track(z, z_meas, norm: Norm = "measured") -> float | np.ndarray:
     return out(ratio(peak(a - b), peak(_norm_signal(a, b, norm))), one)
 
 
-def e_peak_track(z, z_meas, norm: Norm = "measured") -> float | np.ndarray:
+def e_peak_track(z: ArrayLike, z_meas: ArrayLike, norm: Norm = "measured") -> float | np.ndarray:
     """Peak tracking error e_peak,track = |max|z| − max|z'|| / max|z'|, eq. (3).
 
     Compares the peaks only (timing is ignored). Normalised by z' (paper feature, default)
@@ -81,7 +82,8 @@ def one_sided_amplitude(x: np.ndarray) -> np.ndarray:
     return spec
 
 
-def e_rel_track_f(z, z_meas, *, magnitude_only: bool = False) -> float | np.ndarray:
+def e_rel_track_f(z: ArrayLike, z_meas: ArrayLike, *,
+                  magnitude_only: bool = False) -> float | np.ndarray:
     """Relative RMS tracking error in the frequency domain e_rel,track,f, eq. (4).
 
     Default (the reading this package uses): RMS over the one-sided bins of |Z − Z'|
