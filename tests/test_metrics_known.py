@@ -169,3 +169,11 @@ def test_paei_history_tracks_a_change_of_delay():
     assert np.allclose(phase[early], 2 * np.pi * f * 0.005, rtol=0.02)
     assert np.allclose(phase[late], 2 * np.pi * f * 0.015, rtol=0.02)
     assert np.allclose(amp[early | late], 0.9, rtol=0.02)
+
+
+def test_ti_scales_with_amplitude_squared():
+    """TI is qualitative: scaling both signals by s scales TI by s² (Θ_PC, PAEI, FEI do not)."""
+    _, z, zp = sines(1.0, 0.9, 0.01, endpoint=True)
+    assert ti(3 * z, 3 * zp) == pytest.approx(9 * ti(z, zp), rel=1e-9)
+    assert paei(3 * z, 3 * zp)[0] == pytest.approx(paei(z, zp)[0], rel=1e-9)
+    assert fei(3 * z, 3 * zp, DT).d == pytest.approx(fei(z, zp, DT).d, rel=1e-12)
