@@ -285,3 +285,51 @@ def test_record_hold_and_ideal_derivative_sensitivities(nominal, elcentro):
     for c in (1, 4):
         row = run_case(BenchmarkConfig(case=c, derivative="exact"), gm=elcentro).table_row()
         assert 0.04 <= nominal[c].table_row()["J4"] - row["J4"] <= 0.13
+
+
+def test_scene_file_and_overrides(tmp_path):
+    """A benchmark scene TOML sets plant, controller and I/O; overrides apply; bad keys name the field."""
+    from rths3d.rthsbench.scene import load_benchmark_scene
+
+    p = tmp_path / "s.toml"
+    p.write_text('[benchmark]\ncase = 3\n[plant]\nk_e = 1.25e6\n'
+                 '[controller]\ntracking = { type = "pi", kp = 2.5, ki = 120.0 }\n'
+                 '[io]\nnoise = false\n')
+    cfg = load_benchmark_scene(p, ["model.reference=zoh"])
+    assert (cfg.case, cfg.plant.k_e, cfg.noise, cfg.reference) == (3, 1.25e6, False, "zoh")
+    assert cfg.controller.tracking.b == pytest.approx((2.5 + 120 / 8192, -(2.5 - 120 / 8192)))
+    with pytest.raises(ConfigError, match=r"plant\.kk"):
+        load_benchmark_scene(p, ["plant.kk=1"])
+    with pytest.raises(ConfigError, match=r"io\.noize"):
+        load_benchmark_scene(p, ["io.noize=true"])
+    p.write_text('[controller]\ntracking = { type = "tf", num = [1.0, 2.0, 3.0], den = [1.0, 5.0, 6.0] }\n')
+    with pytest.raises(ConfigError, match=r"controller\.tracking"):
+        run_case(load_benchmark_scene(p))
+
+
+def test_faster_tracking_controller_lowers_delay(elcentro):
+    """A higher PI gain (given as a scene controller) lowers J1 and J2 — the loop uses the spec."""
+    from rths3d.lti import pi_controller
+
+    cfg = BenchmarkConfig(case=1, noise=False, t_end=15.0)
+    fast = replace(cfg, controller=ControllerParams(tracking=pi_controller(3.0, 150.0, cfg.dt)))
+    a, b = run_case(cfg, gm=elcentro).table_row(), run_case(fast, gm=elcentro).table_row()
+    assert b["J1"] < a["J1"] and b["J2"] < a["J2"]
+
+
+def test_cli_json_and_errors(capsys):
+    """`rths3d benchmark rths --case 1 --json` prints Table-3 units; a bad case exits 2 in one line."""
+    from rths3d.cli import main
+
+    with pytest.raises(SystemExit) as ex:
+        main(["benchmark", "rths", "--case", "1", "--json"])
+    assert ex.value.code == 0
+    out = json.loads(capsys.readouterr().out)
+    row = out["cases"]["1"]
+    assert row["J1"] == 4.6 and row["status"] == "ok"
+    assert row["published"]["J4"] == 36.1 and abs(row["J4"] - 36.1) <= 0.06
+    with pytest.raises(SystemExit) as ex:
+        main(["benchmark", "rths", "--case", "9"])
+    assert ex.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--case" in err[0]

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import ConfigError
-from ..lti import GroundMotion, load_ground_motion
+from ..lti import DifferenceEquation, GroundMotion, load_ground_motion
 from .plant import PlantParams
 
 __all__ = ["EXCITATIONS", "BenchmarkConfig", "ControllerParams", "data_dir",
@@ -64,14 +64,22 @@ def load_excitation(name: str, intensity: float = 0.4, path: str | Path | None =
 
 @dataclass(frozen=True)
 class ControllerParams:
-    """The sample tracking controller: PI ``K_p + K_i/s`` on the tracking error and the phase
-    lead ``(n₁ s + n₀)/(s + d₀)`` on the numerical displacement, both by Tustin at dt."""
+    """The tracking controller.
+
+    By default the benchmark's sample controller: PI ``K_p + K_i/s`` (kp, ki in 1/s) on the
+    tracking error and the phase lead ``(n₁ s + n₀)/(s + d₀)`` on the numerical displacement,
+    both by Tustin at dt. ``tracking`` / ``lead`` replace them by any discrete controller of
+    order ≤ 1 (e.g. from :func:`rths3d.lti.controller_from_dict`); ``phase_lead=False``
+    removes the lead (unit gain).
+    """
 
     kp: float = 2.0
     ki: float = 95.0  # 1/s
     lead_num: tuple[float, float] = (50.83163360273612, 8570.397339444286)
     lead_den: tuple[float, float] = (1.0, 8570.397339444286)
     phase_lead: bool = True
+    tracking: DifferenceEquation | None = None
+    lead: DifferenceEquation | None = None
 
 
 @dataclass(frozen=True)

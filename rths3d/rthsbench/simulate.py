@@ -27,6 +27,7 @@ import numpy as np
 from ..errors import ConfigError, SafetyStop
 from ..lti import (
     ContinuousSS,
+    DifferenceEquation,
     GroundMotion,
     affine_step_matrices,
     c2d,
@@ -178,15 +179,30 @@ def _noise(cfg: BenchmarkConfig, n: int) -> tuple[np.ndarray, np.ndarray]:
             band_limited_std(cfg.noise_cov_f, cfg.dt) * w_f)
 
 
+def _first_order(de: DifferenceEquation, field: str) -> tuple[float, float, float]:
+    """``(b0, b1, a1)`` of a controller of order ≤ 1 (the generated loop's form)."""
+    if len(de.a) > 2 or len(de.b) > 2:
+        raise ConfigError(field, (de.b, de.a), "the benchmark loop takes controllers of "
+                          "order ≤ 1 (two b and two a coefficients)")
+    b = (*de.b, 0.0, 0.0)
+    a = (*de.a, 0.0, 0.0)
+    return float(b[0]), float(b[1]), float(a[1])
+
+
 def _controller_coeffs(cfg: BenchmarkConfig) -> tuple[float, ...]:
+    """``(lb0, lb1, la1, pb0, pb1, pg)``: phase lead ``y = lb0 u + lb1 u⁻ − la1 y⁻`` and
+    tracking controller ``y = pg y⁻ + pb0 e + pb1 e⁻`` (pg = 1 for a PI)."""
     c = cfg.controller
-    pi = pi_controller(c.kp, c.ki, cfg.dt)
-    if c.phase_lead:
-        pl = lead_lag(c.lead_num, c.lead_den, cfg.dt)
-        lb0, lb1, la1 = pl.b[0], pl.b[1], pl.a[1]
+    track = c.tracking or pi_controller(c.kp, c.ki, cfg.dt)
+    if c.lead is not None:
+        lead = c.lead
+    elif c.phase_lead:
+        lead = lead_lag(c.lead_num, c.lead_den, cfg.dt)
     else:
-        lb0, lb1, la1 = 1.0, 0.0, 0.0
-    return lb0, lb1, la1, pi.b[0], pi.b[1], -pi.a[1]
+        lead = DifferenceEquation((1.0,), (1.0,), cfg.dt)
+    lb0, lb1, la1 = _first_order(lead, "controller.lead")
+    pb0, pb1, pa1 = _first_order(track, "controller.tracking")
+    return lb0, lb1, la1, pb0, pb1, -pa1
 
 
 def _grid(cfg: BenchmarkConfig, gm: GroundMotion) -> tuple[int, np.ndarray]:
@@ -256,7 +272,7 @@ def _build_scalar_loop(cfg: BenchmarkConfig, Phi_n: np.ndarray, gf: np.ndarray,
     L += [f"{I}ypl = {lb0!r}*u1 + {lb1!r}*u1p - {la1!r}*yplp"]
     L += _conv("yp", "ypl", "da", q, sat, I) if math.isfinite(sat) else [f"{I}yp = ypl"]
     L += _conv("e", "yp - xm", "ad", q, sat, I) if math.isfinite(sat) else [f"{I}e = yp - xm"]
-    L += [f"{I}ypi = ypip + {pb0!r}*e + {pb1!r}*ep"]
+    L += [f"{I}ypi = {pa1!r}*ypip + {pb0!r}*e + {pb1!r}*ep"]
     L += _conv("ygc", "ypi", "da", q, sat, I) if math.isfinite(sat) else [f"{I}ygc = ypi"]
     L += [
         f"{I}o_xm[k] = xm; o_x1[k] = z0; o_x2[k] = z1; o_x3[k] = z2",
@@ -454,7 +470,7 @@ def _run_batched(cfg: BenchmarkConfig, plants: list[PlantParams], gm: GroundMoti
             u1 = ad(Z[:, 0, 0])
             ypl = lb0 * u1 + lb1 * u1p - la1 * yplp
             e = ad(da(ypl) - xm)
-            ypi = ypip + pb0 * e + pb1 * ep
+            ypi = pa1 * ypip + pb0 * e + pb1 * ep
             ygc = da(ypi)
             F = P[:, 2, 0]
             XM[k] = xm

@@ -22,7 +22,7 @@ def loop_matrix(cfg: BenchmarkConfig, plant: PlantParams | None = None) -> np.nd
     """The 18×18 matrix of one homogeneous loop step (no ground motion, no converters)."""
     plant = plant or cfg.plant
     _, Phi_n, _, gf, Phi_p, gy, gx = _prepare(cfg, plant)
-    lb0, lb1, la1, pb0, pb1, _ = _controller_coeffs(cfg)
+    lb0, lb1, la1, pb0, pb1, pg = _controller_coeffs(cfg)
     h = cfg.dt
     ke, ce, me = plant.k_e, plant.c_e, plant.m_e
     delay = cfg.force_delay
@@ -37,7 +37,7 @@ def loop_matrix(cfg: BenchmarkConfig, plant: PlantParams | None = None) -> np.nd
         u1 = z[0]
         ypl = lb0 * u1 + lb1 * u1p - la1 * yplp
         e = ypl - x
-        ypi = ypip + pb0 * e + pb1 * ep
+        ypi = pg * ypip + pb0 * e + pb1 * ep
         zn = Phi_n @ z + gf * (fdel if delay else fm)
         pn = Phi_p @ p + gy * ypi + gx * xprev
         return np.concatenate([zn, pn, [x, v, fm, u1, ypl, e, ypi]])
