@@ -455,6 +455,20 @@ class PlatformBatch:
         from .kinematics import inverse_kinematics
 
         self._inverse_kinematics = inverse_kinematics
+        a = config.actuator
+        self._half = config.stroke / 2
+        self._vmax = float(config.velocity_limit)
+        self._vdt = self._vmax * config.dt
+        self._fmax = float(config.force_limit)
+        self._ffg = (a.kv / a.kp / config.dt) if a.velocity_ff else 0.0
+        ids = self.ids
+        a0 = int(ids.act[0])
+        self._act_slice = (a0, a0 + 6)
+        qs = int(ids.slide_qpos[1] - ids.slide_qpos[0])
+        self._q_slice = (int(ids.slide_qpos[0]), int(ids.slide_qpos[-1]) + 1, qs)
+        vs = int(ids.slide_dof[1] - ids.slide_dof[0])
+        self._v_slice = (int(ids.slide_dof[0]), int(ids.slide_dof[-1]) + 1, vs)
+        self._any_stopped = False
         # anchors precomputed for the per-step inverse kinematics over tests
         self._b = g.base_anchors()
         self._p = g.top_anchors()
@@ -505,9 +519,8 @@ class PlatformBatch:
         self._off = offs
         self._pre = pre
         self._Lprev = np.tile(self._home, (self.nsim, 1))
-        self._cmd = np.zeros((self.nsim, 6))
-        self._cmd[:] = offs
         self.stopped[:] = False
+        self._any_stopped = False
         self.reasons = [""] * self.nsim
         self.stop_time[:] = np.nan
         nset = int(round(self.settle / cfg.timestep))
@@ -537,6 +550,7 @@ class PlatformBatch:
 
     def _freeze(self, k: int, stop: SafetyStop) -> None:
         if not self.stopped[k]:
+            self._any_stopped = True
             self.stopped[k] = True
             self.reasons[k] = stop.reason
             self.stop_time[k] = stop.t
@@ -548,10 +562,11 @@ class PlatformBatch:
         and carries on from time 0; the batch does not expose the warning counters, so a
         simulation time behind the expected one is the signature of that reset.
         """
-        expected = self._t0 + self.k * self.config.dt
-        late = self._time < expected - 0.5 * self.config.timestep
+        expected = self._t0 + self.k * self.config.dt - 0.5 * self.config.timestep
         status = self.batch.status
-        bad = (late | (status != 0)) & ~self.stopped
+        if self._time.min() >= expected and not status.any():
+            return
+        bad = ((self._time < expected) | (status != 0)) & ~self.stopped
         if bad.any():
             for k in np.flatnonzero(bad):
                 msg = self.batch.error(int(k)).strip()
@@ -563,7 +578,6 @@ class PlatformBatch:
     def step(self, poses: np.ndarray) -> None:
         """Command poses (K, 6) (m, rad, relative to home) for one interface step ΔT."""
         cfg = self.config
-        dt = cfg.dt
         poses = np.asarray(poses, dtype=float)
         if poses.shape != (self.nsim, 6):
             from ..errors import ConfigError
@@ -573,51 +587,63 @@ class PlatformBatch:
         L = self._ik(poses)
         s = L - self._home
         dL = L - self._Lprev
-        half = cfg.stroke / 2
-        vmax = cfg.velocity_limit
-        t_next = (self.k + 1) * dt
-        bad = ((np.abs(s) > half) | (np.abs(dL) > vmax * dt)) & ~self.stopped[:, None]
-        if bad.any():
-            for k in np.flatnonzero(bad.any(axis=1)):
-                i = int(np.flatnonzero(bad[k])[0])
-                if abs(s[k, i]) > half:
-                    stop = SafetyStop(f"leg {i} commanded stroke", s[k, i], half, t_next,
-                                      test=int(k), unit="m")
-                else:
-                    stop = SafetyStop(f"leg {i} commanded velocity", dL[k, i] / dt, vmax,
-                                      t_next, test=int(k), unit="m/s")
-                self._freeze(int(k), stop)
-        run = ~self.stopped
-        a = cfg.actuator
-        ff = (a.kv / a.kp / dt) if a.velocity_ff else 0.0
-        cmd = s + self._off + ff * dL
-        self._cmd[run] = cmd[run]
-        # stopped tests hold their last set-point and zero velocity feed-forward
-        self._ctrl[:, self.ids.act] = self._cmd
-        self._Lprev[run] = L[run]
-        if run.all():
+        half, vdt = self._half, self._vdt
+        # cheap whole-batch test first; per-test bookkeeping only when something is off
+        if np.abs(s).max() > half or np.abs(dL).max() > vdt:
+            self._command_limits(s, dL)
+        cmd = s + self._off + self._ffg * dL
+        a0, a1 = self._act_slice
+        if not self._any_stopped:
+            self._ctrl[:, a0:a1] = cmd
+            self._Lprev[:] = L
             self.batch.step(nstep=cfg.substeps)
-        elif run.any():  # frozen tests are not stepped any more
-            self.batch.step(ids=np.flatnonzero(run), nstep=cfg.substeps)
+        else:
+            # stopped tests hold their last set-point and are not stepped any more
+            run = ~self.stopped
+            self._ctrl[run, a0:a1] = cmd[run]
+            self._Lprev[run] = L[run]
+            if run.any():
+                self.batch.step(ids=np.flatnonzero(run), nstep=cfg.substeps)
         self.k += 1
         self._check_status()
-        ids = self.ids
-        q = self._qpos[:, ids.slide_qpos]
-        v = self._qvel[:, ids.slide_dof]
-        f = self._force[:, ids.act]
-        fmax = cfg.force_limit
-        over = ((np.abs(q) > half) | (np.abs(v) > vmax) | (np.abs(f) > fmax)) & \
-            ~self.stopped[:, None]
-        if over.any():
-            for k in np.flatnonzero(over.any(axis=1)):
-                i = int(np.flatnonzero(over[k])[0])
-                for name, arr, lim, unit in (("stroke", q, half, "m"),
-                                             ("velocity", v, vmax, "m/s"),
-                                             ("force", f, fmax, "N")):
-                    if abs(arr[k, i]) > lim:
-                        self._freeze(int(k), SafetyStop(f"leg {i} {name}", arr[k, i], lim,
-                                                        self.t, test=int(k), unit=unit))
-                        break
+        q0, q1, qs = self._q_slice
+        v0, v1, vs = self._v_slice
+        q = self._qpos[:, q0:q1:qs]
+        v = self._qvel[:, v0:v1:vs]
+        f = self._force[:, a0:a1]
+        if np.abs(q).max() > half or np.abs(v).max() > self._vmax or \
+                np.abs(f).max() > self._fmax:
+            self._measured_limits(q, v, f)
+
+    def _command_limits(self, s: np.ndarray, dL: np.ndarray) -> None:
+        """Freeze the running tests whose command leaves stroke or speed (before the step)."""
+        dt = self.config.dt
+        half, vdt = self._half, self._vdt
+        t_next = (self.k + 1) * dt
+        bad = ((np.abs(s) > half) | (np.abs(dL) > vdt)) & ~self.stopped[:, None]
+        for k in np.flatnonzero(bad.any(axis=1)):
+            i = int(np.flatnonzero(bad[k])[0])
+            if abs(s[k, i]) > half:
+                stop = SafetyStop(f"leg {i} commanded stroke", s[k, i], half, t_next,
+                                  test=int(k), unit="m")
+            else:
+                stop = SafetyStop(f"leg {i} commanded velocity", dL[k, i] / dt, self._vmax,
+                                  t_next, test=int(k), unit="m/s")
+            self._freeze(int(k), stop)
+
+    def _measured_limits(self, q: np.ndarray, v: np.ndarray, f: np.ndarray) -> None:
+        """Freeze the running tests whose measured stroke, speed or force is out of limits."""
+        over = ((np.abs(q) > self._half) | (np.abs(v) > self._vmax) |
+                (np.abs(f) > self._fmax)) & ~self.stopped[:, None]
+        for k in np.flatnonzero(over.any(axis=1)):
+            i = int(np.flatnonzero(over[k])[0])
+            for name, arr, lim, unit in (("stroke", q, self._half, "m"),
+                                         ("velocity", v, self._vmax, "m/s"),
+                                         ("force", f, self._fmax, "N")):
+                if abs(arr[k, i]) > lim:
+                    self._freeze(int(k), SafetyStop(f"leg {i} {name}", arr[k, i], lim,
+                                                    self.t, test=int(k), unit=unit))
+                    break
 
     # ------------------------------------------------------------------ reads
     @property
