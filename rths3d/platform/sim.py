@@ -649,21 +649,15 @@ class PlatformBatch:
     @property
     def pose(self) -> np.ndarray:
         """Achieved plate poses relative to home (K, 6), m and rad."""
-        from .kinematics import euler_from_matrix
-
-        pq = self._qpos[:, self.ids.plate_qpos:self.ids.plate_qpos + 7]
+        a = self.ids.plate_qpos
+        pq = self._qpos[:, a:a + 7]
         w, x, y, z = pq[:, 3], pq[:, 4], pq[:, 5], pq[:, 6]
-        R = np.empty((self.nsim, 3, 3))
-        R[:, 0, 0] = 1 - 2 * (y * y + z * z)
-        R[:, 1, 0] = 2 * (x * y + w * z)
-        R[:, 2, 0] = 2 * (x * z - w * y)
-        R[:, 2, 1] = 2 * (y * z + w * x)
-        R[:, 2, 2] = 1 - 2 * (x * x + y * y)
-        ang = euler_from_matrix(R)
         out = np.empty((self.nsim, 6))
         out[:, :3] = pq[:, :3]
-        out[:, 2] -= self.config.geometry.home_height
-        out[:, 3:] = ang
+        out[:, 2] -= self._hh
+        out[:, 3] = np.arctan2(2 * (y * z + w * x), 1 - 2 * (x * x + y * y))
+        out[:, 4] = np.arcsin(np.clip(2 * (w * y - x * z), -1.0, 1.0))
+        out[:, 5] = np.arctan2(2 * (x * y + w * z), 1 - 2 * (y * y + z * z))
         return out
 
     @property
