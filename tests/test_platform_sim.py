@@ -200,7 +200,7 @@ def test_velocity_limit_stops_at_the_step():
     with pytest.raises(SafetyStop, match=r"leg \d commanded velocity = .* m/s exceeds the limit "
                                          r"0\.3 m/s") as info:
         sim.step(0.0, 0.0, 0.002, 0.0, 0.0, 0.0)
-    assert info.value.t == pytest.approx(0.001)
+    assert info.value.t == pytest.approx(0.002)  # the time the refused command was meant for
 
 
 def test_force_limit_stops_with_measured_force():

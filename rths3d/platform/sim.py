@@ -223,7 +223,9 @@ class PlatformSim:
     (m, rad, relative to home). ``step`` raises :class:`~rths3d.errors.SafetyStop` when a
     commanded leg leaves its stroke or speed limit (before stepping), when a measured leg
     leaves its stroke, speed or force limit, or when MuJoCo reports a bad acceleration
-    (divergence; MuJoCo would otherwise silently reset the state).
+    (divergence; MuJoCo would otherwise silently reset the state). The stop's time ``t`` is
+    the time the offending step's command was meant for (``(k + 1)·ΔT`` for step k, as in
+    the records of :func:`~rths3d.platform.tracking.track`).
     """
 
     def __init__(self, config: PlatformConfig | None = None, payload_xml: str | None = None,
@@ -321,8 +323,9 @@ class PlatformSim:
         """
         self._step(x, y, z, rx, ry, rz)
 
-    def _stop(self, quantity: str, value: float, limit: float, unit: str) -> None:
-        raise SafetyStop(quantity, value, limit, self.t, unit=unit)
+    def _stop(self, quantity: str, value: float, limit: float, unit: str,
+              ahead: int = 0) -> None:
+        raise SafetyStop(quantity, value, limit, (self._count[0] + ahead) * self._dt, unit=unit)
 
     def _check_command(self, L: tuple) -> None:
         """Raise the SafetyStop for the first commanded leg outside stroke or speed."""
@@ -330,10 +333,10 @@ class PlatformSim:
         for i, Li in enumerate(L):
             s = Li - self._home[i]
             if abs(s) > self._smax:
-                self._stop(f"leg {i} commanded stroke", s, self._smax, "m")
+                self._stop(f"leg {i} commanded stroke", s, self._smax, "m", ahead=1)
             v = (Li - self._Lprev[i]) / dt
             if abs(v) > self._vmax:
-                self._stop(f"leg {i} commanded velocity", v, self._vmax, "m/s")
+                self._stop(f"leg {i} commanded velocity", v, self._vmax, "m/s", ahead=1)
         raise AssertionError("unreachable: command check found no violation")  # pragma: no cover
 
     def _check_measured(self, q: list, v: list, f: list) -> None:
