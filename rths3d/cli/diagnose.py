@@ -12,10 +12,12 @@ from ._app import app
 @app.command()
 def diagnose(
     measurement: Path = typer.Argument(..., help="Measurement record (.parquet or .csv)."),
-    scene: str = typer.Option("bench", "--scene",
-                              help="Bench model: 'bench' (1-D heave bench), 'stewart' (six-leg "
-                                   "platform) — parameters from the record metadata or the "
-                                   "defaults — or a TOML file with a [bench] table."),
+    scene: str | None = typer.Option(None, "--scene",
+                                     help="Bench model: 'bench' (1-D heave bench), 'stewart' "
+                                          "(six-leg platform) — parameters from the record "
+                                          "metadata or the defaults — or a TOML file with a "
+                                          "[bench] table. Default: as the record's metadata "
+                                          "says, else 'bench'."),
     add: list[str] = typer.Option([], "--add",
                                   help="EFFECT (fitted) or EFFECT=value (held at value, SI "
                                        "unit); repeatable."),
@@ -54,6 +56,11 @@ def diagnose(
         payload["rounds"] = [r.proposal.effect if r.proposal else None for r in rounds]
         payload["warnings"] = warns
         payload["report"] = str(report_path) if report_path else None
+        payload["ignored_channels"] = list(diag.ignored)
+        from ..diagnose.report import localisation
+
+        loc = localisation(diag)
+        payload["localisation"] = {"fei": loc["fei"], "contact": loc["contact"]}
 
         def clean(o):
             if isinstance(o, float) and not math.isfinite(o):

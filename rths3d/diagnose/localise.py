@@ -53,7 +53,7 @@ def window_rms(r: np.ndarray, dt: float, window: float = 0.25) -> tuple[np.ndarr
 
 def residual_spectrum(r: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Welch power spectral density of the residual: (f Hz, PSD unit²/Hz)."""
-    nper = min(r.size, 1024)
+    nper = min(r.size, 512)
     return signal.welch(r, fs=1.0 / dt, nperseg=nper)
 
 

@@ -28,7 +28,8 @@ from ..record import Record
 from .engine import Diagnosis, RoundResult
 from .localise import condition_table, fei, residual_spectrum, transfer_estimate, window_rms
 
-UNITS = {"z_meas.z": "m", "f_meas.z": "N", "f_meas.x": "N", "leg_force.0": "N"}
+UNITS = {"z_meas.z": "m", "f_meas.z": "N", "f_meas.x": "N",
+         **{f"leg_force.{i}": "N" for i in range(6)}}
 
 
 def replay_record(diag: Diagnosis) -> Record:
@@ -114,7 +115,7 @@ def _plot_localisation(diag: Diagnosis, path: Path) -> None:
         ax.set_xlabel("t (s)")
     axes[-1, 2].set_xlabel("f (Hz)")
     fig.suptitle("Where the model fails: time, contact phases, frequency")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
     fig.savefig(path, dpi=90)
     plt.close(fig)
 
