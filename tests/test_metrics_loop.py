@@ -60,3 +60,22 @@ def test_multidof_loop_record_per_dof_and_features():
     for s in (1, 2, 3):
         row = feature_row(res.record, set=s)
         assert all(math.isfinite(v) for v in row.values()), row
+
+
+def test_paper_contact_tests_tracking_errors_fully_correlated():
+    """The paper's own test family (contact, Fig. 4) run by the loop over transport delays
+    0–20 ms and gaps h_0 of Table 1: e_rel,track and e_rel,track,f fully correlated (ρ > 0.999)
+    although the offset of the cosine trajectory makes their slope differ from 1."""
+    sc = scene_mod.load_scene("paper_contact", ["duration=4.0"])
+    params = [{"transfer.delay": d, "experiment.h0": h}
+              for d in (0.0, 0.005, 0.02) for h in (0.002, 0.005, 0.01)]
+    results = loop.run_batch(sc, params, "lti", reference=False)
+    et, ef = [], []
+    for res in results:
+        assert res.status == "ok", res.reason
+        z = res.record.signal("z_cmd")[:, 0]
+        zp = res.record.signal("z_meas")[:, 0]
+        et.append(e_rel_track(z, zp))
+        ef.append(e_rel_track_f(z, zp))
+    assert np.ptp(et) > 0.01
+    assert np.corrcoef(et, ef)[0, 1] > 0.999
