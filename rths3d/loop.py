@@ -110,12 +110,13 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
     return out
 
 
-def scene_with(scene: Scene, overrides: Mapping[str, Any] | Sequence[str]) -> Scene:
+def scene_with(scene: Scene, overrides: Mapping[str, Any] | Sequence[str],
+               _raw: dict | None = None) -> Scene:
     """A validated copy of ``scene`` with dotted-key overrides (e.g. ``{"numerical.k": 5e3}``)."""
     if not overrides:
         return scene
-    raw = scene_to_dict(scene)
-    nm = raw["numerical"]
+    raw = dict(_raw) if _raw is not None else scene_to_dict(scene)
+    nm = raw["numerical"] = dict(raw["numerical"])
     items = overrides.items() if isinstance(overrides, Mapping) else \
         [tuple(s.split("=", 1)) for s in overrides]
     for key, _ in items:
@@ -441,7 +442,7 @@ def _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, a
             for i in range(num.n):
                 rec.columns.pop(f"x_ref.{i}", None)
         results.append(RunResult(rec, b.meta["status"], b.meta["reason"], rtf, wall,
-                                 scenes[k].params()))
+                                 b.meta["params"]))
     return results
 
 
@@ -487,9 +488,10 @@ def run_batch(scene: Scene, param_sets: Sequence[Mapping[str, Any]], transfer: s
     if transfer is not None:
         scene = scene.with_transfer(transfer)
     scenes = []
+    raw = scene_to_dict(scene)
     for i, ps in enumerate(param_sets):
         try:
-            scenes.append(scene_with(scene, ps))
+            scenes.append(scene_with(scene, ps, raw))
         except ConfigError as exc:
             raise ConfigError(exc.field, exc.value, exc.limit,
                               message=f"parameter set {i}: {exc}") from None

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -256,8 +256,9 @@ class Scene:
         """Flat dict of all scalar parameters, keyed by dotted field names."""
         out: dict[str, Any] = {"dt": self.dt, "duration": self.duration}
         for sec in ("numerical", "experiment", "excitation", "transfer", "sensor", "safety"):
-            for k, v in asdict(getattr(self, sec)).items():
-                out[f"{sec}.{k}"] = v
+            obj = getattr(self, sec)
+            for f in fields(obj):
+                out[f"{sec}.{f.name}"] = getattr(obj, f.name)
         return out
 
     def with_transfer(self, kind: str) -> Scene:
@@ -313,6 +314,11 @@ def _numerical(raw: Mapping[str, Any], n_if: int, dofs: tuple[str, ...]) -> Nume
     if n == 1 and M[0, 0] <= 0:
         raise ConfigError(f"numerical.{label}", float(M[0, 0]), "mass must be > 0 kg")
     for name, A, strict in (("M", M, True), ("K", K, False), ("C", C, False)):
+        if n == 1:
+            if A[0, 0] < 0:
+                raise ConfigError(f"numerical.{name.lower() if label == 'm' else name}",
+                                  float(A[0, 0]), "must be >= 0")
+            continue
         if not np.allclose(A, A.T, rtol=1e-10, atol=1e-12):
             raise ConfigError(f"numerical.{name}", A.tolist(), "must be symmetric")
         ev = np.linalg.eigvalsh(A)
@@ -484,9 +490,8 @@ def apply_overrides(raw: dict[str, Any], overrides: Sequence[str] | Mapping[str,
 
     A mapping of dotted key → value is accepted as well (values used as given).
     """
-    import copy
-
-    out = copy.deepcopy(raw)
+    out = dict(raw)  # copy-on-write: only the tables on an override's path are copied
+    copied: set[tuple[str, ...]] = {()}
     items: list[tuple[str, Any]] = []
     if isinstance(overrides, Mapping):
         items = list(overrides.items())
@@ -499,12 +504,17 @@ def apply_overrides(raw: dict[str, Any], overrides: Sequence[str] | Mapping[str,
     for key, val in items:
         parts = key.split(".")
         node = out
-        for p in parts[:-1]:
+        for i, p in enumerate(parts[:-1]):
             nxt = node.get(p)
             if nxt is None:
-                nxt = node[p] = {}
+                nxt = {}
             if not isinstance(nxt, dict):
                 raise ConfigError(key, val, f"{p!r} is not a table")
+            path = tuple(parts[:i + 1])
+            if path not in copied:
+                nxt = dict(nxt)
+                copied.add(path)
+            node[p] = nxt
             node = nxt
         node[parts[-1]] = val
     return out

@@ -81,8 +81,26 @@ def _exact_batch(M: np.ndarray, C: np.ndarray, K: np.ndarray, dt: float
     aug[:, n:S, n:S] = -(Minv @ C) * dt
     aug[:, n:S, S:S + n] = Minv * dt
     aug[:, S:S + n, S + n:] = np.eye(n)
-    E = scipy.linalg.expm(aug)
+    E = _expm_stack(aug)
     return E[:, :S, :S], E[:, :S, S:S + n], E[:, :S, S + n:]
+
+
+def _expm_stack(A: np.ndarray) -> np.ndarray:
+    """Matrix exponentials of a stack (K, m, m): scaling and squaring with an 18-term
+    Taylor series (truncation < 1e-16 for ‖A/2^s‖₁ ≤ 0.5). Stacked matmuls avoid per-matrix
+    library calls, which dominate for thousands of small matrices."""
+    norm = np.abs(A).sum(axis=1).max(axis=1)
+    s = int(max(0, np.ceil(np.log2(max(float(norm.max()), 1e-300) / 0.5))))
+    X = A / (2.0**s)
+    eye = np.broadcast_to(np.eye(A.shape[1]), A.shape)
+    E = eye + X
+    term = X
+    for k in range(2, 19):
+        term = term @ X / k
+        E = E + term
+    for _ in range(s):
+        E = E @ E
+    return E
 
 
 class NumericalSubstructure(Protocol):

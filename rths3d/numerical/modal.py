@@ -17,6 +17,8 @@ def fastest_eigenfrequency(M: np.ndarray, K: np.ndarray) -> float:
     """Largest undamped circular eigenfrequency ω (rad/s) of K v = ω² M v."""
     M = np.atleast_2d(np.asarray(M, float))
     K = np.atleast_2d(np.asarray(K, float))
+    if M.shape == (1, 1):
+        return float(np.sqrt(max(K[0, 0] / M[0, 0], 0.0)))
     w2 = scipy.linalg.eigh(K, M, eigvals_only=True)
     return float(np.sqrt(max(float(w2.max()), 0.0)))
 
