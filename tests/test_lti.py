@@ -311,3 +311,17 @@ def test_ground_motion_zero_order_hold():
     gm = GroundMotion(np.array([0.0, 0.1, 0.2]), np.array([1.0, 2.0, 3.0]), scale=2.0)
     np.testing.assert_allclose(gm.held(np.array([-0.01, 0.0, 0.05, 0.1, 0.199, 0.2, 0.3])),
                                [0.0, 2.0, 2.0, 4.0, 4.0, 6.0, 0.0])
+
+
+def test_system_from_scene_data():
+    """Scene tables build tf, state-space and series systems; incomplete tables name the field."""
+    from rths3d.lti import system_from_dict
+
+    g = system_from_dict({"series": [{"num": [1.0], "den": [1.0, 2.0]},
+                                     {"A": [[-3.0]], "B": [[1.0]], "C": [[3.0]]}]})
+    w = np.array([0.5, 2.0])
+    np.testing.assert_allclose(g.freqresp(w)[:, 0, 0], 3.0 / ((1j * w + 2) * (1j * w + 3)), rtol=1e-12)
+    with pytest.raises(ConfigError, match=r"plant\.den"):
+        system_from_dict({"num": [1.0]}, field="plant")
+    with pytest.raises(ConfigError, match=r"plant\.C"):
+        system_from_dict({"A": [[0.0]], "B": [[1.0]]}, field="plant")

@@ -16,7 +16,7 @@ from .noise import (
     simulink_seed_state,
 )
 from .stepper import RK4Stepper, ScalarStepper, StateSpaceStepper, affine_step_matrices, rk4_step
-from .systems import ContinuousSS, feedback, parallel, series, ss, tf
+from .systems import ContinuousSS, feedback, parallel, series, ss, system_from_dict, tf
 
 __all__ = [
     "ContinuousSS", "Converter", "DifferenceEquation", "DiscreteSS", "GroundMotion",
@@ -25,5 +25,6 @@ __all__ = [
     "feedback", "foh_matrices", "lead_lag", "load_ground_motion", "lsim_foh",
     "normal_sequence", "parallel", "pi_controller", "quantize", "rk4_step",
     "round_half_away", "saturate", "series", "simulink_randn", "simulink_seed_state", "ss",
+    "system_from_dict",
     "tf", "tustin_tf",
 ]

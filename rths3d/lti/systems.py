@@ -7,7 +7,7 @@ signals are; time in s). Build one from a transfer function (:func:`tf`), from m
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,7 +16,7 @@ import scipy.signal
 
 from ..errors import ConfigError
 
-__all__ = ["ContinuousSS", "feedback", "parallel", "series", "ss", "tf"]
+__all__ = ["ContinuousSS", "feedback", "parallel", "series", "ss", "system_from_dict", "tf"]
 
 
 def _matrix(name: str, value: object, shape: tuple[int, int] | None = None) -> np.ndarray:
@@ -194,3 +194,33 @@ def feedback(forward: ContinuousSS, back: ContinuousSS | None = None,
     C = np.hstack([G.C + G.D @ Kg, G.D @ Kh])
     D = G.D @ Ei
     return ss(A, B, C, D)
+
+
+def system_from_dict(spec: Mapping[str, object], field: str = "system") -> ContinuousSS:
+    """A continuous system from scene data.
+
+    ``{"num": [...], "den": [...]}`` (transfer function, descending powers of s) or
+    ``{"A": [[...]], "B": [[...]], "C": [[...]], "D": [[...]]}`` (D optional); a list of such
+    tables under ``"series"`` connects them in order (signal flows first → last).
+    """
+    if not isinstance(spec, Mapping):
+        raise ConfigError(field, spec, "must be a table")
+    if "series" in spec:
+        parts = spec["series"]
+        if not isinstance(parts, Sequence) or isinstance(parts, str) or not parts:
+            raise ConfigError(f"{field}.series", parts, "must be a non-empty list of systems")
+        sys = system_from_dict(parts[0], f"{field}.series[0]")
+        for i, part in enumerate(parts[1:], start=1):
+            sys = series(sys, system_from_dict(part, f"{field}.series[{i}]"))
+        return sys
+    if "num" in spec or "den" in spec:
+        if "num" not in spec or "den" not in spec:
+            missing = "num" if "num" not in spec else "den"
+            raise ConfigError(f"{field}.{missing}", None, "a transfer function needs num and den")
+        return tf(spec["num"], spec["den"])  # type: ignore[arg-type]
+    if "A" in spec:
+        for key in ("B", "C"):
+            if key not in spec:
+                raise ConfigError(f"{field}.{key}", None, "a state-space system needs A, B, C")
+        return ss(spec["A"], spec["B"], spec["C"], spec.get("D"))
+    raise ConfigError(field, sorted(spec), "needs num/den, A/B/C(/D) or series")
