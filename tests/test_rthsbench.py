@@ -333,3 +333,11 @@ def test_cli_json_and_errors(capsys):
     assert ex.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--case" in err[0]
+
+
+def test_lower_loop_rate_raises_structural_error(elcentro):
+    """At 1024 and 2048 Hz (controller, converters and force delay re-derived for dt) J4 grows
+    as the rate falls: the one-sample force delay is longer."""
+    j4 = [run_case(BenchmarkConfig(case=1, dt=1 / fs, t_end=15.0, noise=False), gm=elcentro)
+          .table_row()["J4"] for fs in (1024, 2048, 4096)]
+    assert j4[0] > j4[1] > j4[2]

@@ -80,6 +80,8 @@ class BenchmarkResult:
         """Criteria in the benchmark's units: ``J1`` in ms, ``J2``…``J9`` in %."""
         from ..metrics.criteria import benchmark_row
 
+        if not self.j:  # too short to evaluate (fewer than 61 samples)
+            return {f"J{i}": math.nan for i in range(1, 10)}
         return benchmark_row(self.j)
 
     def to_record(self):  # -> rths3d.record.Record
