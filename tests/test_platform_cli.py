@@ -55,3 +55,14 @@ def test_identify_quick_writes_tf_and_bode(tmp_path, capsys):
     assert 0.0 <= tf.delay < 0.01 and tf.fit_error < 0.05
     assert (tmp_path / "tf_bode.png").stat().st_size > 20_000
     assert "fit error" in out
+
+
+def test_info_reports_geometry_and_condition(capsys):
+    """`platform info --json` reports the home Jacobian condition and the static leg forces."""
+    code, out, _ = _run(["platform", "info", "--payload-mass", "2", "--json"], capsys)
+    assert code == 0
+    info = json.loads(out.strip().splitlines()[-1])
+    assert info["jacobian_cond_home"] == pytest.approx(5.6988, abs=1e-3)
+    assert info["jacobian_cond_home_scaled"] < 2.0
+    assert info["payload_mass_kg"] == pytest.approx(2.0)
+    assert len(info["static_leg_force_n"]) == 6 and min(info["static_leg_force_n"]) > 0

@@ -180,3 +180,40 @@ def identify(
         typer.echo(f"  {label:<16s} fit error {100 * err:.2f} %")
     typer.echo(f"TF file {path}")
     typer.echo(f"Bode plot {png}")
+
+
+@platform_app.command()
+def info(
+    payload_mass: float = typer.Option(0.0, help="Box payload on the FTS (kg); 0: none."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON line."),
+) -> None:
+    """Print the default platform: geometry, limits, Jacobian condition at home, static
+    leg forces and the delay the default actuator settings predict."""
+    import numpy as np
+
+    from ..platform import DEFAULT_GEOMETRY, PlatformConfig, PlatformSim, jacobian
+    from ..platform.model import predicted_delay
+
+    g = DEFAULT_GEOMETRY
+    J = jacobian(g, np.zeros(6))
+    Js = J.copy()
+    Js[:, 3:] /= g.top_radius
+    cfg = PlatformConfig()
+    sim = PlatformSim(cfg, payload_xml=_payload(payload_mass), settle=0.0)
+    figures = {
+        "base_radius_m": g.base_radius, "top_radius_m": g.top_radius,
+        "home_height_m": g.home_height, "home_leg_length_m": float(g.home_leg_lengths()[0]),
+        "stroke_m": g.stroke, "leg_velocity_limit_m_s": g.leg_velocity_limit,
+        "leg_force_limit_n": g.leg_force_limit,
+        "jacobian_cond_home": float(np.linalg.cond(J)),
+        "jacobian_cond_home_scaled": float(np.linalg.cond(Js)),
+        "static_leg_force_n": [round(float(f), 4) for f in sim.static.leg_forces],
+        "payload_mass_kg": sim.static.payload_mass,
+        "predicted_delay_1hz_s": predicted_delay(cfg, 1.0),
+        "model_nq": int(sim.model.nq), "model_nv": int(sim.model.nv),
+    }
+    if as_json:
+        typer.echo(json.dumps(figures))
+        return
+    for k, v in figures.items():
+        typer.echo(f"{k:28s} {v}")
