@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ..record import Record
+from ..record import DOFS, Record
 from .engine import Diagnosis, RoundResult
 from .localise import condition_table, fei, residual_spectrum, transfer_estimate, window_rms
 
@@ -34,15 +34,21 @@ UNITS = {"z_meas.z": "m", "f_meas.z": "N", "f_meas.x": "N",
 
 def replay_record(diag: Diagnosis) -> Record:
     """The measurement with the model replay (accepted effects) as ``model.<column>``
-    columns, and ``model.contact`` (N), for side-by-side viewing."""
+    columns, ``model.contact`` (N) and ``model.pose_meas.<dof>`` (m, rad), for side-by-side
+    viewing."""
     out = diag.predict()
     cols = dict(diag.record.columns)
     for c in diag.channels:
         cols[f"model.{c}"] = out[c]
     cols["model.contact"] = out["contact"]
+    # the model's plate pose, for the viewer's plate twin (heave replay: other DOFs zero)
+    for dof in DOFS:
+        cols[f"model.pose_meas.{dof}"] = out["z_meas.z"] if dof == "z" else \
+            np.zeros(diag.record.n)
     meta = dict(diag.record.meta)
     meta["diagnosis"] = {"accepted": dict(diag.accepted), "model_columns":
-                         [f"model.{c}" for c in diag.channels] + ["model.contact"]}
+                         [f"model.{c}" for c in diag.channels] + ["model.contact"]
+                         + [f"model.pose_meas.{d}" for d in DOFS]}
     return Record(diag.record.t, cols, meta)
 
 
