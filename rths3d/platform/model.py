@@ -173,7 +173,8 @@ class PlatformConfig:
         return a if a is not None else self.geometry.leg_force_limit
 
 
-def predicted_delay(config: PlatformConfig, frequency: float = 1.0) -> float:
+def predicted_delay(config: PlatformConfig, frequency: float = 1.0,
+                    payload_mass: float = 0.0) -> float:
     """Phase delay (s) of the achieved motion behind the command, from the actuator settings.
 
     Timing convention: the pose commanded at interface step k is the target for the end of
@@ -188,8 +189,10 @@ def predicted_delay(config: PlatformConfig, frequency: float = 1.0) -> float:
     * MuJoCo's exact discrete first-order filter ``(1 − p)/(z − p)``, ``p = exp(−h/τ)``, when
       ``timeconst`` τ > 0 — its delay is ``h/(1 − p) ≈ τ + h/2`` (the force uses the filter
       state before its update, hence the extra sample);
-    * the servo ``(kp + kv·s·[ff]) / (kp + kv·s)`` (the leg mass is negligible against kp at
-      these frequencies): a lag of ``kv/kp`` without velocity feed-forward, none with it.
+    * the servo ``(kp + kv·s·[ff]) / (m s² + kv·s + kp)``: a lag of ``kv/kp`` without
+      velocity feed-forward, none with it, plus the effect of the mass ``m`` each leg moves
+      in heave, ``(plate + FTS + payload_mass)/(6 u_z²) + piston`` (u_z: vertical component
+      of the home leg direction) — small below a few Hz, ≈0.7 ms at 10 Hz.
 
     So at low frequency ``d ≈ delay − ΔT/2 − h/2 + (τ + h/2 if τ > 0) + (kv/kp if not ff)``;
     this function evaluates the phase of that chain exactly at ``frequency`` (Hz). Checked
@@ -204,7 +207,12 @@ def predicted_delay(config: PlatformConfig, frequency: float = 1.0) -> float:
         p = math.exp(-h / a.timeconst)
         g = (1 - p) / (z - p)
         phase += -math.atan2(g.imag, g.real)
-    servo = complex(a.kp, (w * a.kv) if a.velocity_ff else 0.0) / complex(a.kp, w * a.kv)
+    g = config.geometry
+    uz = g.home_leg_vectors()[:, 2] / g.home_leg_lengths()
+    m = (g.plate_mass + g.fts_mass + payload_mass) / (6 * float(np.mean(uz ** 2))) + \
+        g.piston_mass
+    servo = complex(a.kp, (w * a.kv) if a.velocity_ff else 0.0) / \
+        complex(a.kp - m * w * w, w * a.kv)
     phase += -math.atan2(servo.imag, servo.real)
     return phase / w
 
