@@ -129,8 +129,9 @@ def track(poses: np.ndarray, config: PlatformConfig | None = None, *,
         "platform": {
             "substeps": config.substeps, "kp": a.kp, "kv": a.kv, "timeconst": a.timeconst,
             "delay": a.delay, "velocity_ff": a.velocity_ff, "gravity_comp": a.gravity_comp,
-            "predicted_delay_1hz": predicted_delay(config, 1.0),
             "payload_mass": sim.static.payload_mass if sim.static else 0.0,
+            "predicted_delay_1hz": predicted_delay(
+                config, 1.0, sim.static.payload_mass if sim.static else 0.0),
         },
     }
     return Record(t, cols, meta)
@@ -208,7 +209,8 @@ def tracking_figures(record: Record, dof: str, frequency: float,
           if d in ("x", "y", "z")]
     rot = [np.max(np.abs(record.columns[f"pose_meas.{d}"][sel])) for d in others
            if d in ("rx", "ry", "rz")]
-    pd = predicted_delay(config, frequency) if config is not None else float("nan")
+    payload = float(record.meta.get("platform", {}).get("payload_mass", 0.0))
+    pd = predicted_delay(config, frequency, payload) if config is not None else float("nan")
     gap = float(np.max(record.columns["eq_gap"])) if "eq_gap" in record.columns else float("nan")
     return TrackingFigures(dof=dof, delay=float(delay), predicted_delay=float(pd),
                            amplitude_ratio=float(ratio), nrms_error=nrms,
