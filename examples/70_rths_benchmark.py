@@ -8,19 +8,16 @@ Writes ``rths_benchmark_case1.png`` in the current folder.
 
 from __future__ import annotations
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from rths3d.rthsbench import (  # noqa: E402
+from rths3d.rthsbench import (
     PUBLISHED_TABLE3,
     BenchmarkConfig,
     load_excitation,
     run_case,
     run_trials,
 )
+from rths3d.rthsbench.plots import plot_result
 
 J = [f"J{i}" for i in range(1, 10)]
 
@@ -52,27 +49,7 @@ def main() -> None:
     kobe = run_case(BenchmarkConfig(case=3, excitation="Kobe"))
     print(f"Kobe case 3: {kobe.status} — {kobe.reason}")
 
-    r = results[1]
-    fig, ax = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
-    ax[0].plot(r.t, 1e3 * r.x_num[:, 0], label="desired $y_n = x_{n1}$")
-    ax[0].plot(r.t, 1e3 * r.x_m, "--", label="measured $x_m$")
-    ax[0].plot(r.t, 1e3 * r.x_ref[:, 0], ":", label="reference $x_{r1}$")
-    ax[0].set_ylabel("floor 1 (mm)")
-    ax[0].legend(loc="upper right")
-    for f in (1, 2):
-        ax[1].plot(r.t, 1e3 * (r.x_num[:, f] - r.x_ref[:, f]), label=f"floor {f + 1}")
-    ax[1].set_ylabel("$x_n - x_r$ (mm)")
-    ax[1].legend(loc="upper right")
-    ax[2].plot(r.t, 1e-3 * r.f_act)
-    ax[2].axhline(8.9, color="r", lw=0.8)
-    ax[2].axhline(-8.9, color="r", lw=0.8)
-    ax[2].set_ylabel("$F_{act}$ (kN)")
-    ax[2].set_xlabel("t (s)")
-    ax[0].set_title("RTHS benchmark, case 1, El Centro × 0.4 (J1 = "
-                    f"{r.table_row()['J1']:.1f} ms, J4 = {r.table_row()['J4']:.2f} %)")
-    ax[0].set_xlim(4, 20)
-    fig.tight_layout()
-    fig.savefig("rths_benchmark_case1.png", dpi=110)
+    plot_result(results[1], "rths_benchmark_case1.png", window=(4.0, 20.0))
     print("wrote rths_benchmark_case1.png")
 
 

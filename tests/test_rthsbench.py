@@ -317,17 +317,20 @@ def test_faster_tracking_controller_lowers_delay(elcentro):
     assert b["J1"] < a["J1"] and b["J2"] < a["J2"]
 
 
-def test_cli_json_and_errors(capsys):
-    """`rths3d benchmark rths --case 1 --json` prints Table-3 units; a bad case exits 2 in one line."""
+def test_cli_json_and_errors(capsys, tmp_path):
+    """`rths3d benchmark rths --case 1 --json --plot` prints Table-3 units and writes the figure;
+    a bad case exits 2 with one line."""
     from rths3d.cli import main
 
+    png = tmp_path / "case1.png"
     with pytest.raises(SystemExit) as ex:
-        main(["benchmark", "rths", "--case", "1", "--json"])
+        main(["benchmark", "rths", "--case", "1", "--json", "--plot", str(png)])
     assert ex.value.code == 0
     out = json.loads(capsys.readouterr().out)
     row = out["cases"]["1"]
     assert row["J1"] == 4.6 and row["status"] == "ok"
     assert row["published"]["J4"] == 36.1 and abs(row["J4"] - 36.1) <= 0.06
+    assert png.stat().st_size > 10_000 and out["plot"] == str(png)
     with pytest.raises(SystemExit) as ex:
         main(["benchmark", "rths", "--case", "9"])
     assert ex.value.code == 2

@@ -40,6 +40,8 @@ def rths(
     set_: list[str] = typer.Option([], "--set", help="Scene override key=value (repeatable)."),
     seed: int = typer.Option(123, "--seed", help="Seed of the perturbed-plant draws."),
     data: str = typer.Option("", "--data", help="Benchmark folder holding data/ (optional)."),
+    plot: str = typer.Option("", "--plot", help="Save a PNG of the first case's time history "
+                             "(and <name>_trials.png of the trial spread with --trials)."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
     """Run the RTHS benchmark and print J1–J9 beside the published Table 3.
@@ -83,11 +85,14 @@ def rths(
     from rich.progress import Progress
 
     total = len(cases) * (1 + trials)
+    first = None
+    trial_rows: dict[int, list] = {}
     with Progress(transient=True, disable=as_json or not sys.stderr.isatty()) as prog:
         task = prog.add_task("benchmark", total=total)
         for c in cases:
             cfg = replace(base, case=c)
             res = run_case(cfg, gm=gm)
+            first = first or res
             prog.advance(task)
             # a stopped test has no criteria (its record is partial); the reason says why
             ok_run = res.status == "ok" and bool(res.j)
@@ -99,6 +104,7 @@ def rths(
                 rs = run_trials(cfg, n_trials=trials, seed=seed, gm=gm,
                                 progress=lambda _i: prog.advance(task))
                 ok = [r for r in rs if r.status == "ok"]
+                trial_rows[c] = [r.table_row() for r in ok]
                 J = np.array([[r.table_row()[k] for k in J_KEYS] for r in ok]) if ok else None
                 entry["trials"] = {
                     "n": len(rs), "ok": len(ok),
@@ -112,6 +118,17 @@ def rths(
                                                  for k, v in zip(J_KEYS, fn(J, axis=0),
                                                                  strict=True)}
             out["cases"][str(c)] = entry
+    if plot:
+        from pathlib import Path
+
+        from ..rthsbench.plots import plot_result, plot_trials
+
+        out["plot"] = str(plot_result(first, plot))
+        if trial_rows:
+            p = Path(plot)
+            out["plot_trials"] = str(plot_trials(
+                trial_rows, p.with_name(p.stem + "_trials" + (p.suffix or ".png")),
+                PUBLISHED_TABLE3 if published_applies else None))
     if as_json:
         typer.echo(json.dumps(out))
         return
@@ -143,6 +160,9 @@ def rths(
                        f"max |F_act| = {tr['max_force_N']:.0f} N")
             for reason in tr["stopped"]:
                 typer.echo(f"{'':>4}  stopped trial: {reason}")
+    for key in ("plot", "plot_trials"):
+        if key in out:
+            typer.echo(f"wrote {out[key]}")
     if not published_applies:
         typer.echo("(the paper publishes Table 3 only for El Centro × 0.4, nominal plant, "
                    "noise on)")

@@ -1,0 +1,82 @@
+"""Figures of benchmark runs (matplotlib, Agg backend): time histories and trial spread."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .simulate import BenchmarkResult
+
+__all__ = ["plot_result", "plot_trials"]
+
+
+def plot_result(res: BenchmarkResult, path: str | Path, window: tuple[float, float] | None = None
+                ) -> Path:
+    """Floor-1 tracking (y_n, x_m, x_r1), floor 2–3 errors and the actuator force of a run."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    c = res.config
+    fig, ax = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
+    ax[0].plot(res.t, 1e3 * res.x_num[:, 0], label="desired $y_n = x_{n1}$")
+    ax[0].plot(res.t, 1e3 * res.x_m, "--", label="measured $x_m$")
+    ax[0].plot(res.t, 1e3 * res.x_ref[:, 0], ":", label="reference $x_{r1}$")
+    ax[0].set_ylabel("floor 1 (mm)")
+    ax[0].legend(loc="upper right")
+    for f, style in ((2, "-"), (1, "--")):  # floor 3 first: floor 2's smaller error on top
+        ax[1].plot(res.t, 1e3 * (res.x_num[:, f] - res.x_ref[:, f]), style, lw=0.9,
+                   label=f"floor {f + 1}")
+    ax[1].set_ylabel("$x_n - x_r$ (mm)")
+    ax[1].legend(loc="upper right")
+    ax[2].plot(res.t, 1e-3 * res.f_act)
+    for s in (-1, 1):
+        ax[2].axhline(s * 1e-3 * c.force_limit, color="r", lw=0.8)
+    ax[2].set_ylabel("$F_{act}$ (kN)")
+    ax[2].set_xlabel("t (s)")
+    row = res.table_row()
+    title = (f"case {c.case}, {c.excitation} × {c.intensity}: J1 = {row['J1']:.1f} ms, "
+             f"J2 = {row['J2']:.2f} %, J4 = {row['J4']:.2f} %")
+    if res.status != "ok":
+        title = f"case {c.case}, {c.excitation} × {c.intensity}: STOPPED at {res.t[-1]:.3f} s"
+    ax[0].set_title(title)
+    if window is not None:
+        ax[0].set_xlim(*window)
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def plot_trials(rows: Mapping[int, Sequence[Mapping[str, float]]], path: str | Path,
+                published: Mapping[int, Mapping[str, float]] | None = None) -> Path:
+    """Box plots of J2–J9 over perturbed trials per case (``rows[case]`` = table rows), with
+    the published nominal values as markers where given."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    keys = [f"J{i}" for i in range(2, 10)]
+    cases = sorted(rows)
+    fig, axes = plt.subplots(1, len(cases), figsize=(3.2 * len(cases), 4), sharey=True,
+                             squeeze=False)
+    for ax, c in zip(axes[0], cases, strict=True):
+        data = np.array([[r[k] for k in keys] for r in rows[c]])
+        ax.boxplot(data, tick_labels=keys)
+        if published and c in published:
+            ax.plot(range(1, len(keys) + 1), [published[c][k] for k in keys], "r*",
+                    label="published (nominal)")
+            ax.legend(loc="upper right", fontsize=8)
+        ax.set_title(f"case {c} ({len(rows[c])} trials)")
+        ax.tick_params(axis="x", labelrotation=60)
+    axes[0][0].set_ylabel("criterion (%)")
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
