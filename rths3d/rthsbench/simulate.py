@@ -397,9 +397,9 @@ def run_trials(cfg: BenchmarkConfig | None = None, n_trials: int = 20, seed: int
         out = []
         # the reference structure is the same for every trial (the partition adds up)
         gs = gm.scaled(cfg.intensity)
-        N, _ = _grid(cfg, gs)
+        _, t = _grid(cfg, gs)
         m = case_matrices(cfg.case, cfg.plant.m_e, cfg.plant.c_e, cfg.plant.k_e)
-        x_ref = reference_response(m, gs.sample(cfg.dt, N), cfg.dt, cfg.reference)
+        x_ref = reference_response(m, _ground_stages(cfg, gs, t)[:, 0], cfg.dt, cfg.reference)
         for i, p in enumerate(plants):
             out.append(run_case(replace(cfg, plant=p), gm=gm, x_ref=x_ref))
             if progress is not None:
