@@ -46,9 +46,9 @@ def rths(
 ) -> None:
     """Run the RTHS benchmark and print J1–J9 beside the published Table 3.
 
-    J1 is the tracking delay in ms, J2–J9 are normalised errors in %. A case whose actuator
-    force reaches 8900 N stops safely and is reported as stopped with the reason. Options
-    given on the command line override the scene file.
+    J1 is the tracking delay in ms, J2–J9 normalised errors in %.
+    A case whose actuator force reaches 8900 N stops safely (reported with the reason).
+    Options given on the command line override the scene file.
     """
     from dataclasses import replace
 
