@@ -26,7 +26,7 @@ def test_tracking_delay_recovers_integer_lag(lag):
     assert tracking_delay(x, y, DT) == pytest.approx(lag * DT, abs=1e-15)
 
 
-def test_tracking_delay_is_amplitude_invariant_unlike_plain_crosscorrelation():
+def test_tracking_delay_is_gain_and_offset_invariant():
     """Pearson normalisation makes J1 independent of gain and offset of the measurement."""
     x = _chirp()
     y = 0.7 * np.concatenate([np.zeros(12), x[:-12]]) + 3e-3
