@@ -36,6 +36,52 @@ FORMAT = "rths3d-fidelity-ann/1"
 DEFAULT_TOPOLOGIES: tuple[tuple[int, ...], ...] = ((2,), (5,), (10,), (20,), (5, 5), (10, 10))
 
 
+TRANSFORMS = ("linear", "log")
+
+
+@dataclass(frozen=True)
+class Compress:
+    """Optional compression of heavy-tailed columns before the [−1, 1] normalisation.
+
+    For ``transform="log"``: a column that is > 0 in all training samples becomes log10(x); any
+    other column becomes asinh(x / s) with s its median |x| (linear near 0, logarithmic in the
+    tails, sign kept). The target is log10(y) when all training targets are > 0. Reference
+    errors and most indicators span decades (e_rel,ref from 10⁻³ to 0.4 in the paper's grid);
+    a linear map to [−1, 1] squeezes most samples into a corner.
+    """
+
+    log_cols: tuple[bool, ...]
+    scale: tuple[float, ...]
+    log_y: bool
+
+    @classmethod
+    def fit(cls, x: np.ndarray, y: np.ndarray, kind: str) -> Compress:
+        d = x.shape[1]
+        if kind == "linear":
+            return cls((False,) * d, (0.0,) * d, False)
+        pos = (x > 0).all(axis=0)
+        med = np.median(np.abs(x), axis=0)
+        scale = np.where(pos, 0.0, np.where(med > 0, med, 1.0))
+        return cls(tuple(bool(p) for p in pos), tuple(float(v) for v in scale),
+                   bool((y > 0).all()))
+
+    def x(self, x: np.ndarray) -> np.ndarray:
+        out = np.array(x, dtype=float, copy=True)
+        for j, (lg, sc) in enumerate(zip(self.log_cols, self.scale, strict=True)):
+            if lg:
+                # nonpositive inputs lie outside the training range anyway (warned); clamp
+                out[:, j] = np.log10(np.maximum(out[:, j], 1e-300))
+            elif sc > 0:
+                out[:, j] = np.arcsinh(out[:, j] / sc)
+        return out
+
+    def y(self, y: np.ndarray) -> np.ndarray:
+        return np.log10(y) if self.log_y else np.asarray(y, dtype=float)
+
+    def y_inv(self, z: np.ndarray) -> np.ndarray:
+        return 10.0 ** z if self.log_y else z
+
+
 class ExtrapolationWarning(UserWarning):
     """Inputs lie outside the ranges the network was trained on (it extrapolates)."""
 
@@ -72,13 +118,21 @@ class FidelityANN:
         Seeds the split and the weight initialisations (deterministic).
     lm:
         Levenberg–Marquardt settings (``max_fail=6`` early stopping as MATLAB).
+    transform:
+        ``"linear"`` (the paper: features and target mapped linearly to [−1, 1]) or ``"log"``
+        (heavy-tailed columns compressed first, see :class:`Compress`).
     """
 
     def __init__(self, topologies: Sequence[Sequence[int]] | None = None, n_trainings: int = 5,
                  split: tuple[float, float, float] = (0.70, 0.15, 0.15), seed: int = 0,
-                 lm: LMConfig = LMConfig()):
+                 lm: LMConfig = LMConfig(), transform: str = "linear"):
         if n_trainings < 1:
             raise ConfigError("n_trainings", n_trainings, "must be >= 1")
+        if transform not in TRANSFORMS:
+            raise ConfigError("transform", transform, f"one of {', '.join(TRANSFORMS)}")
+        self.transform = transform
+        self.compress: Compress | None = None
+        self.raw_range: MinMax | None = None
         self.topologies = tuple(tuple(int(h) for h in t)
                                 for t in (topologies or DEFAULT_TOPOLOGIES))
         self.n_trainings = int(n_trainings)
@@ -113,10 +167,13 @@ class FidelityANN:
         if not np.all(np.isfinite(t)):
             raise ConfigError("y", "NaN/inf", "targets must be finite")
         self.feature_names = names
-        self.x_scale = MinMax.fit(x, "X")
-        self.y_scale = MinMax.fit(t[:, None], "y")
-        xn = self.x_scale.transform(x)
-        tn = self.y_scale.transform(t[:, None])[:, 0]
+        self.raw_range = MinMax.fit(x, "X")
+        self.compress = Compress.fit(x, t, self.transform)
+        xc, tc = self.compress.x(x), self.compress.y(t)
+        self.x_scale = MinMax.fit(xc, "X")
+        self.y_scale = MinMax.fit(tc[:, None], "y")
+        xn = self.x_scale.transform(xc)
+        tn = self.y_scale.transform(tc[:, None])[:, 0]
         self.indices = ({k: np.asarray(v, dtype=int) for k, v in indices.items()}
                         if indices is not None else
                         split_indices(x.shape[0], self.split, self.seed))
@@ -166,7 +223,7 @@ class FidelityANN:
         if x.shape[1] != self.topology.n_in:
             raise ConfigError("X", x.shape, f"needs {self.topology.n_in} feature columns")
         if warn:
-            out = self.x_scale.outside(x)
+            out = self.raw_range.outside(x)
             if out.any():
                 cols = np.flatnonzero(out.any(axis=0))
                 names = [self.feature_names[c] if self.feature_names else str(c) for c in cols]
@@ -174,10 +231,10 @@ class FidelityANN:
                     f"{int(out.any(axis=1).sum())} of {x.shape[0]} sample(s) lie outside the "
                     f"training ranges of {', '.join(names)}: the network extrapolates",
                     ExtrapolationWarning, stacklevel=3)
-        xn = torch.as_tensor(self.x_scale.transform(x), dtype=DTYPE)
+        xn = torch.as_tensor(self.x_scale.transform(self.compress.x(x)), dtype=DTYPE)
         with torch.no_grad():
             outs = np.stack([forward(self.topology, w, xn).numpy() for w in self.members])
-        return self.y_scale.inverse(outs[..., None])[..., 0]
+        return self.compress.y_inv(self.y_scale.inverse(outs[..., None])[..., 0])
 
     def predict(self, X: Any, return_std: bool = False, warn: bool = True
                 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
@@ -226,12 +283,17 @@ class FidelityANN:
             "n_in": self.topology.n_in,
             "hidden": list(self.topology.hidden),
             "x_range": self.x_scale.to_dict(),
+            "raw_range": self.raw_range.to_dict(),
+            "transform": self.transform,
+            "compress": {"log_cols": list(self.compress.log_cols),
+                         "scale": list(self.compress.scale), "log_y": self.compress.log_y},
             "y_range": self.y_scale.to_dict(),
             "indices": {k: v.tolist() for k, v in self.indices.items()},
             "members": [w.tolist() for w in self.members],
             "search": [s.__dict__ | {"hidden": list(s.hidden)} for s in self.search],
             "settings": {"topologies": [list(t) for t in self.topologies],
                          "n_trainings": self.n_trainings, "split": list(self.split),
+                         "transform": self.transform,
                          "seed": self.seed},
             "info": self.info,
         }
@@ -251,11 +313,17 @@ class FidelityANN:
             raise ConfigError("model.format", d.get("format"), f"expected {FORMAT!r}")
         s = d.get("settings", {})
         m = cls(topologies=s.get("topologies"), n_trainings=s.get("n_trainings", 5),
-                split=tuple(s.get("split", (0.7, 0.15, 0.15))), seed=s.get("seed", 0))
+                split=tuple(s.get("split", (0.7, 0.15, 0.15))), seed=s.get("seed", 0),
+                transform=d.get("transform", "linear"))
         m.feature_names = list(d["feature_names"])
         m.target_name = d.get("target_name", "e_rel_ref")
         m.topology = Topology(int(d["n_in"]), tuple(d["hidden"]))
         m.x_scale = MinMax.from_dict(d["x_range"])
+        m.raw_range = MinMax.from_dict(d.get("raw_range", d["x_range"]))
+        c = d.get("compress")
+        m.compress = (Compress(tuple(c["log_cols"]), tuple(c["scale"]), bool(c["log_y"]))
+                      if c else Compress.fit(np.zeros((1, m.topology.n_in)), np.zeros(1),
+                                             "linear"))
         m.y_scale = MinMax.from_dict(d["y_range"])
         m.indices = {k: np.asarray(v, dtype=int) for k, v in d["indices"].items()}
         m.members = [torch.as_tensor(w, dtype=DTYPE) for w in d["members"]]

@@ -67,9 +67,10 @@ def _members_rho(model: FidelityANN, X: Any, y: np.ndarray) -> tuple[list[float]
 
 def fit_and_score(X: Any, y: np.ndarray, system: str, features: int, *, seed: int = 0,
                   n_trainings: int = 5, topologies: Sequence[Sequence[int]] | None = None,
-                  note: str = "") -> tuple[FidelityANN, ProtocolRow]:
+                  note: str = "", transform: str = "linear") -> tuple[FidelityANN, ProtocolRow]:
     """Train on (X, y) (70/15/15) and report the training and *test-set* ρ over trainings."""
-    model = FidelityANN(topologies=topologies, n_trainings=n_trainings, seed=seed).fit(X, y)
+    model = FidelityANN(topologies=topologies, n_trainings=n_trainings, seed=seed,
+                        transform=transform).fit(X, y)
     sc = model.scores(X, y)
     rt, rte = sc["members_r_train"], sc["members_r_test"]
     row = ProtocolRow(system, features, len(model.indices["train"]), len(model.indices["test"]),
@@ -91,7 +92,7 @@ def apply_and_score(model: FidelityANN, X: Any, y: np.ndarray, system: str, feat
 def in_range(model: FidelityANN, X: Any) -> np.ndarray:
     """Rows of X inside every training range (the paper kept only such linear samples)."""
     x = X.to_numpy(dtype=float) if hasattr(X, "to_numpy") else np.asarray(X, dtype=float)
-    return ~model.x_scale.outside(x).any(axis=1)
+    return ~model.raw_range.outside(x).any(axis=1)
 
 
 def rows_to_markdown(rows: Sequence[ProtocolRow]) -> str:
@@ -116,7 +117,8 @@ def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any 
               families: Any | None = None, *, left_out: str = "linear",
               n_trainings: int = 5, seed: int = 0,
               topologies: Sequence[Sequence[int]] | None = None,
-              feature_sets: Sequence[int] = (1, 2, 3)) -> list[ProtocolRow]:
+              feature_sets: Sequence[int] = (1, 2, 3), transform: str = "linear"
+              ) -> list[ProtocolRow]:
     """Run the whole protocol on sweep tables (DataFrames) and return the result rows.
 
     ``contact_lti``: the paper's contact tests with the 1-D LTI transfer (training data);
@@ -132,7 +134,8 @@ def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any 
         X, y, _ = training_data(contact_lti, fs)
         model, row = fit_and_score(X, y, "contact, 1-D LTI transfer (vRTHS)", fs, seed=seed,
                                    n_trainings=n_trainings, topologies=topologies,
-                                   note="trained here; ρ eval = test set")
+                                   note="trained here; ρ eval = test set",
+                                   transform=transform)
         models[fs] = model
         rows.append(row)
     if contact_stewart is not None:
@@ -151,7 +154,8 @@ def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any 
             X, y, _ = training_data(families, fs, exclude=[left_out])
             model, row = fit_and_score(X, y, f"families without {left_out!r}", fs, seed=seed,
                                        n_trainings=n_trainings, topologies=topologies,
-                                       note="test set of the training families")
+                                       note="test set of the training families",
+                                       transform=transform)
             rows.append(row)
             Xo, yo, _ = training_data(families, fs, families=[left_out])
             if len(yo) > 2:
