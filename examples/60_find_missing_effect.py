@@ -32,8 +32,8 @@ def main() -> None:
     for rnd in range(1, 5):
         result = diag.run()
         first = first or result
-        if result.noise_only:
-            print(f"round {rnd}: only noise remains")
+        if result.proposal is None:
+            print(f"round {rnd}: {result.status.replace('_', ' ')}")
             break
         p = result.proposal
         print(f"round {rnd}: add {p.effect} ({p.param} = {p.value:.4g} {p.unit}), validation "

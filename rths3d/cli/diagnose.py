@@ -95,6 +95,9 @@ def diagnose(
         con.print(f"confounded: {a} ↔ {b} (cos {cos:.3f})")
     if result.noise_only:
         con.print("[green]only noise remains[/]: no effect proposed")
+    elif result.proposal is None:
+        con.print(f"[red]unexplained residual[/]: {result.error_val:.3g} noise units remain "
+                  "that no library effect explains; check the scene or add an effect")
     else:
         p = result.proposal
         con.print(f"proposal: add [bold]{p.effect}[/] ({p.param} = {p.value:.4g} {p.unit}); "

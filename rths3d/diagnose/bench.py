@@ -211,6 +211,8 @@ class BenchModel:
         self.fixture_geom = "ft_geom"
         self.m_fixture = self.cfg.m_fts
         self.specimen_joint = "spec_z"
+        self.specimen_geom = "mass_geom"
+        self.m_exp = self.cfg.m_exp
         self.k_exp = self.cfg.k_exp
         self.c_exp = self.cfg.c_exp
         self.wall_geom = "wall"
@@ -241,7 +243,7 @@ class BenchModel:
         w_total = float(model.body_subtreemass[model.body("plate").id]) * G
         data.qpos[0] = u0 - w_total / kp
         k = float(model.jnt_stiffness[1])
-        data.qpos[1] = -self.cfg.m_exp * G / k
+        data.qpos[1] = -float(model.body_mass[model.body("mass").id]) * G / k
         mj.mj_forward(model, data)
         state = np.empty(mj.mj_stateSize(model, mj.mjtState.mjSTATE_FULLPHYSICS))
         mj.mj_getState(model, data, state, mj.mjtState.mjSTATE_FULLPHYSICS)

@@ -16,8 +16,11 @@ Workflow (one *round*):
    1 kHz residual (:func:`~.localise.effective_samples`); an effect is *significant* if
    ΔBIC > 0, the validation error falls by at least ``min_gain`` and its confidence interval
    excludes the off value;
-6. report confounded pairs (fitted changes with |cos| ≥ 0.95) and ``noise_only`` when no
-   candidate is significant.
+6. report confounded pairs (fitted changes with |cos| ≥ 0.95); when no candidate is
+   significant, ``noise_only`` if the residual looks like noise (validation error ≤ 1.5
+   noise units, or every channel's residual nearly white: n_eff/n ≥ 0.5), otherwise the
+   status ``unexplained``: structure remains that no effect of the library explains (a
+   wrong scene or an effect the library lacks) — never reported as noise.
 
 :meth:`Diagnosis.add` accepts an effect (fitted or fixed), refits every free accepted
 parameter jointly and appends a step to the waterfall (errors on training and validation).
@@ -81,12 +84,22 @@ class RoundResult:
     candidates: list[Candidate]
     accepted: dict[str, float]
     noise_only: bool
+    """True only when nothing is significant *and* the residual looks like noise."""
     proposal: Candidate | None
     confounded: list[tuple[str, str, float]]
     error_train: float
     error_val: float
     channel_rms: dict[str, float]
     noise_sigma: dict[str, float]
+    whiteness: dict[str, float] = field(default_factory=dict)
+    """n_eff/n of each channel's validation residual (1 = white)."""
+
+    @property
+    def status(self) -> str:
+        """``"effect_proposed"``, ``"noise_only"`` or ``"unexplained"``."""
+        if self.proposal is not None:
+            return "effect_proposed"
+        return "noise_only" if self.noise_only else "unexplained"
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready summary (keys ``candidates``, ``accepted``, ``noise_only`` ...)."""
@@ -95,6 +108,8 @@ class RoundResult:
             "accepted": [{"effect": k, "params": {get_effect(k).param.name: v}}
                          for k, v in self.accepted.items()],
             "noise_only": self.noise_only,
+            "status": self.status,
+            "whiteness": self.whiteness,
             "proposal": self.proposal.effect if self.proposal else None,
             "confounded": [{"a": a, "b": b, "cos": c} for a, b, c in self.confounded],
             "error_train": self.error_train,
@@ -413,8 +428,11 @@ class Diagnosis:
         proposal = next((c for c in ranked if c.significant), None)
         chan_rms = {c: float(np.sqrt(np.mean((r0[c] * self.sigma[c]) ** 2)))
                     for c in self.channels}
-        return RoundResult(ranked, dict(self.accepted), proposal is None, proposal, confounded,
-                           e_tr0, e_va0, chan_rms, dict(self.sigma))
+        nval = int(self.val.sum())
+        white = {c: effective_samples(r0[c][self.val]) / nval for c in self.channels}
+        noise_like = e_va0 <= 1.5 or min(white.values()) >= 0.5
+        return RoundResult(ranked, dict(self.accepted), proposal is None and noise_like,
+                           proposal, confounded, e_tr0, e_va0, chan_rms, dict(self.sigma), white)
 
     def auto(self, max_rounds: int = 4) -> list[RoundResult]:
         """Rounds of run → accept the proposal, until only noise remains (or ``max_rounds``)."""

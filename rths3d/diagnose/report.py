@@ -203,6 +203,12 @@ def write_report(diag: Diagnosis, result: RoundResult, out_dir: str | Path,
     if result.noise_only:
         lines += ["**Only noise remains**: no candidate effect explains the residual "
                   "significantly.", ""]
+    elif result.proposal is None:
+        lines += ["**Unexplained residual**: no effect of the library explains it "
+                  f"significantly, yet it is not noise (validation error {result.error_val:.3g}"
+                  " noise units, whiteness " + ", ".join(f"{c} {w:.2f}" for c, w in
+                                                         result.whiteness.items())
+                  + "). Check the scene (bench parameters) or add a new effect.", ""]
     else:
         p = result.proposal
         lines += [f"**Proposal: add `{p.effect}`** ({p.param} = {p.value:.4g} {p.unit}, 95 % "

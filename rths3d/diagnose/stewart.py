@@ -63,6 +63,8 @@ class StewartBenchModel(BenchModel):
         self.fixture_geom = "fixture_geom"
         self.m_fixture = self.cfg.m_fts
         self.specimen_joint = "spec_z"
+        self.specimen_geom = "mass_geom"
+        self.m_exp = self.cfg.m_exp
         self.k_exp = self.cfg.k_exp
         self.c_exp = self.cfg.c_exp
         self.wall_geom = "wall"
@@ -126,16 +128,14 @@ class StewartBenchModel(BenchModel):
         from ..platform.sim import static_state
 
         data = self._mujoco.MjData(model)
-        data.qpos[model.jnt_qposadr[model.joint("spec_z").id]] = \
-            -self.cfg.m_exp * 9.81 / float(model.jnt_stiffness[model.joint("spec_z").id])
+        data.qpos[model.jnt_qposadr[model.joint("spec_z").id]] = _specimen_sag(model)
         return static_state(self.platform, model, data)
 
     def _initial_state(self, model, u0=None) -> np.ndarray:
         mj = self._mujoco
         data = mj.MjData(model)
         jq = model.jnt_qposadr[model.joint("spec_z").id]
-        data.qpos[jq] = -self.cfg.m_exp * 9.81 / float(model.jnt_stiffness[
-            model.joint("spec_z").id])
+        data.qpos[jq] = _specimen_sag(model)
         acts = [model.actuator(n).id for n in self.leg_actuators]
         for i, a in enumerate(acts):
             data.ctrl[a] = self._offsets[i]
@@ -194,6 +194,12 @@ class StewartBenchModel(BenchModel):
         meta = super().as_meta()
         meta["model"] = "stewart"
         return meta
+
+
+def _specimen_sag(model) -> float:
+    """Static deflection of the specimen spring under the specimen's weight (m, negative)."""
+    k = float(model.jnt_stiffness[model.joint("spec_z").id])
+    return -float(model.body_mass[model.body("mass").id]) * 9.81 / k
 
 
 def make_model(cfg: BenchConfig | None, dt: float, kind: str = "bench") -> BenchModel:

@@ -13,7 +13,7 @@ force on the specimen, tared), ``leg_force.<i>`` (N, actuator forces, tared; one
 
 Spec-stage hooks address the model through the names a backend exposes (``bench`` argument):
 ``leg_joints``, ``leg_actuators``, ``kp``, ``physics_step``, ``fixture_geom``, ``m_fixture``,
-``specimen_joint``, ``k_exp``, ``c_exp``, ``wall_geom``.
+``specimen_joint``, ``specimen_geom``, ``m_exp``, ``k_exp``, ``c_exp``, ``wall_geom``.
 """
 
 from __future__ import annotations
@@ -337,6 +337,18 @@ class SpecimenStiffness(Effect):
     def apply_spec(self, spec, value, bench):
         spec.joint(bench.specimen_joint).stiffness = np.array(
             [bench.k_exp * (1.0 + value), 0.0, 0.0])
+
+
+@register
+class SpecimenMass(Effect):
+    name = "specimen_mass"
+    stage = "spec"
+    param = Param("dm", "1", 0.0, -0.9, 5.0, 0.1, "relative mass error: m' = (1 + dm)·m")
+    description = "Specimen mass differs from the model (it also sags further on its spring)."
+    signature = "force residual ∝ the specimen's absolute acceleration; resonance shifts"
+
+    def apply_spec(self, spec, value, bench):
+        spec.geom(bench.specimen_geom).mass = bench.m_exp * (1.0 + value)
 
 
 @register
