@@ -235,3 +235,20 @@ def test_hidden_friction_found_on_the_stewart_platform(tmp_path):
     assert top.effect == "coulomb_friction" and top.significant
     assert top.value == pytest.approx(20.0, rel=0.1)
     assert top.error_after < 1.2 < 10 < top.error_before
+
+
+def test_missing_library_effect_is_unexplained_not_noise():
+    """When the true effect is not among the candidates, the rounds end 'unexplained' (no
+    proposal, noise_only False, error well above the noise floor) — never 'only noise'."""
+    from rths3d.effects import REGISTRY
+
+    rec = synthetic_measurement({"coulomb_friction": 40.0}, seed=21)
+    cands = [n for n, e in REGISTRY.items() if e.candidate and n not in
+             ("coulomb_friction", "backlash")]
+    diag = Diagnosis(rec, candidates=cands, top_k=3)
+    rounds = diag.auto(max_rounds=3)
+    last = rounds[-1]
+    assert last.error_val > 1.5
+    if last.proposal is None:
+        assert last.status == "unexplained" and not last.noise_only
+    assert not any(r.noise_only for r in rounds)
