@@ -243,3 +243,19 @@ def test_stewart_friction_acts_on_every_leg(stewart, command):
     moving = np.abs(v) > 5e-3
     shift = np.median(np.abs(legs[moving]), axis=0)
     np.testing.assert_allclose(shift, 25.0, rtol=0.15)
+
+
+def test_bench_from_a_vrths_scene():
+    """A loop scene with a contact specimen maps onto the bench: m, k, h0, servo gains, and
+    k_contact (N/m) becomes the mass-normalised k_contact/m (1/s²); other kinds are refused."""
+    from rths3d.diagnose.bench import resolve_scene
+    from rths3d.scene import load_scene
+
+    sc = load_scene("paper_contact")
+    cfg, kind = resolve_scene("paper_contact")
+    assert kind in ("bench", "stewart")
+    assert cfg.m_exp == sc.experiment.m and cfg.k_exp == sc.experiment.k
+    assert cfg.h0 == sc.experiment.h0 and cfg.kp == sc.transfer.kp
+    assert cfg.k_contact == pytest.approx(sc.experiment.k_contact / sc.experiment.m)
+    with pytest.raises(ConfigError, match="experiment.kind"):
+        resolve_scene("multidof")

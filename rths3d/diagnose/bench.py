@@ -82,9 +82,19 @@ MODEL_KINDS: tuple[str, ...] = ("bench", "stewart")
 def resolve_scene(scene: str | Path | None, meta: Mapping[str, Any] | None = None
                   ) -> tuple[BenchConfig, str]:
     """Bench parameters and model kind for ``--scene``: ``"bench"`` or ``"stewart"`` (the
-    record's ``meta['bench']`` parameters if present, else the defaults), or a TOML file with
-    a ``[bench]`` table (optional key ``model = "bench" | "stewart"``)."""
+    record's ``meta['bench']`` parameters if present, else the defaults), a TOML file with
+    a ``[bench]`` table (optional key ``model = "bench" | "stewart"``), or a vRTHS scene
+    (name or TOML path, see :func:`from_loop_scene`)."""
     name = "" if scene is None else str(scene)
+    path = Path(name)
+    is_bench_toml = False
+    if name.endswith(".toml") and path.exists():
+        try:
+            is_bench_toml = "bench" in tomllib.loads(path.read_text())
+        except tomllib.TOMLDecodeError as exc:
+            raise ConfigError("scene", name, f"not valid TOML: {exc}") from None
+    if name not in ("", "bench", "default", "stewart") and not is_bench_toml:
+        return from_loop_scene(name)
     if name in ("", "bench", "default", "stewart"):
         table = dict(meta["bench"]) if meta and isinstance(meta.get("bench"), Mapping) else {}
         kind = name if name in MODEL_KINDS else str(table.get("model", "bench"))
@@ -108,6 +118,24 @@ def resolve_scene(scene: str | Path | None, meta: Mapping[str, Any] | None = Non
     if kind not in MODEL_KINDS:
         raise ConfigError(f"{source}.model", kind, "must be one of " + ", ".join(MODEL_KINDS))
     return BenchConfig.from_mapping(table, source), kind
+
+
+def from_loop_scene(scene: str | Path) -> tuple[BenchConfig, str]:
+    """Bench parameters from a vRTHS scene (``rths3d.scene``, a name in ``scenes/`` or a TOML
+    path) with a single-DOF ``contact`` experiment: specimen ``m``, ``k``, ``d``, ``h0``,
+    ``k_contact`` (N/m, converted to the mass-normalised 1/s² of the bench) and the servo
+    ``kp``, ``kv`` of its transfer system; a ``stewart`` transfer selects the Stewart model."""
+    from ..scene import load_scene
+
+    sc = load_scene(scene)
+    exp = sc.experiment
+    if exp.kind != "contact":
+        raise ConfigError(f"{sc.name}: experiment.kind", exp.kind,
+                          "the diagnosis models a 'contact' specimen (heave)")
+    tr = sc.transfer
+    cfg = BenchConfig(m_exp=exp.m, k_exp=exp.k, c_exp=max(exp.d, 1e-6), h0=exp.h0,
+                      k_contact=exp.k_contact / exp.m, kp=tr.kp, kv=tr.kv)
+    return cfg, "stewart" if tr.kind == "stewart" else "bench"
 
 
 def load_bench(scene: str | Path | None, meta: Mapping[str, Any] | None = None) -> BenchConfig:
