@@ -108,6 +108,9 @@ class BenchmarkResult:
             "experiment": {"m_exp": c.plant.m_e, "k_exp": [[c.plant.k_e]],
                            "c_exp": c.plant.c_e},
             "j_criteria": self.j,
+            # fastest eigenfrequency of the numerical substructure (rad/s), for τ-ratios
+            "omega_num_max": float(np.sqrt(np.max(np.linalg.eigvals(
+                np.linalg.solve(m.Mn, m.Kn)).real))),
         }
         return Record(self.t, cols, meta)
 
