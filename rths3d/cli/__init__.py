@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import sys
 
-from ._app import app
 from . import (  # noqa: F401  (modules register their commands on import)
     benchmark,
     diagnose,
@@ -19,6 +18,7 @@ from . import (  # noqa: F401  (modules register their commands on import)
     train,
     view,
 )
+from ._app import app
 
 __all__ = ["app", "main"]
 
