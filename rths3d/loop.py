@@ -231,7 +231,7 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
         s_pm = slice(ci["pose_meas.x"], ci["pose_meas.x"] + 6)
     data[:, :, 0] = (np.arange(N + 1) * dt)[:, None]
     # f_ext per interface DOF: Γᵀ p (the external load seen at the interface)
-    data[:, :, s_fe] = np.einsum("ktn,nd->tkd", num.p, num.gamma)
+    data[:, :, s_fe] = np.matmul(num.p, num.gamma).transpose(1, 0, 2)
     # safety limits per interface DOF
     saf = base.safety
     is_rot = np.array([d.startswith("r") for d in base.dofs])
@@ -271,30 +271,41 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
             num.s[k] = 0.0
 
     n = 0
+    # per-signal histories: contiguous (K, ·) block writes per step, copied into the record
+    # array at the end (and every few steps when someone watches the live buffers)
+    h_zc = np.zeros((N + 1, K, nd))
+    h_zm = np.zeros((N + 1, K, nd))
+    h_f = np.zeros((N + 1, K, nd))
+    h_x = np.zeros((N + 1, K, num.n))
+    if stewart:
+        h_pc = np.zeros((N + 1, K, 6))
+        h_pm = np.zeros((N + 1, K, 6))
+    zlim_min = float(lim_z.min())
+    vlim_min = float(lim_v.min())
+    flim_min = float(lim_f.min())
+    watched = control is not None
+
+    def flush(upto: int) -> None:
+        data[:upto, :, s_zc] = h_zc[:upto]
+        data[:upto, :, s_zm] = h_zm[:upto]
+        data[:upto, :, s_fm] = h_f[:upto]
+        data[:upto, :, s_x] = h_x[:upto]
+        if stewart:
+            data[:upto, :, s_pc] = h_pc[:upto]
+            data[:upto, :, s_pm] = h_pm[:upto]
+
     for n in range(N):
         num.step(n, f)
         z = num.z
         zd = num.zdot
         az = np.abs(z)
-        if (az > lim_z).any() or (np.abs(zd) > lim_v).any() or \
-                not (np.abs(num.x) <= lim_x).all():
-            for k in np.flatnonzero(active):
-                tk = (n + 1) * dt
-                xk = num.x[k]
-                if not np.all(np.isfinite(xk)) or np.abs(xk).max() > lim_x:
-                    halt(k, SafetyStop("divergence: numerical displacement |x|",
-                                       float(np.nanmax(np.abs(xk))), lim_x, tk, k, "m"), n)
-                    continue
-                for j, d in enumerate(base.dofs):
-                    u = "rad" if is_rot[j] else "m"
-                    if az[k, j] > lim_z[j]:
-                        halt(k, SafetyStop(f"stroke: commanded {d}", z[k, j], lim_z[j], tk, k,
-                                           u), n)
-                        break
-                    if abs(zd[k, j]) > lim_v[j]:
-                        halt(k, SafetyStop(f"velocity: commanded {d} rate", zd[k, j],
-                                           lim_v[j], tk, k, "m/s"), n)
-                        break
+        # cheap pre-checks (NaN fails `<=`); the per-test search runs only when one trips
+        if (not (az.max() <= zlim_min) or not (np.abs(zd).max() <= vlim_min)
+                or not (np.abs(num.x).max() <= lim_x)) and \
+                ((az > lim_z).any() or (np.abs(zd) > lim_v).any()
+                 or not (np.abs(num.x) <= lim_x).all()):
+            _check_command(num, z, zd, az, active, base, is_rot, lim_z, lim_v, lim_x, dt, n,
+                           halt)
             if not active.any():
                 break
         try:
@@ -309,15 +320,14 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
                                         math.nan, (n + 1) * dt, int(k)), n)
                 reasons[k] = transfer.reasons[k]
         f = transfer.f_meas
-        row = data[n + 1]
-        row[:, s_zc] = z
-        row[:, s_zm] = transfer.z_meas
-        row[:, s_fm] = f
-        row[:, s_x] = num.x
+        h_zc[n + 1] = z
+        h_zm[n + 1] = transfer.z_meas
+        h_f[n + 1] = f
+        h_x[n + 1] = num.x
         if stewart:
-            row[:, s_pc] = transfer.pose_cmd
-            row[:, s_pm] = transfer.pose_meas
-        if (np.abs(f) > lim_f).any():
+            h_pc[n + 1] = transfer.pose_cmd
+            h_pm[n + 1] = transfer.pose_meas
+        if not (np.abs(f).max() <= flim_min) and (np.abs(f) > lim_f).any():
             for k in np.flatnonzero(active):
                 for j, d in enumerate(base.dofs):
                     if abs(f[k, j]) > lim_f[j]:
@@ -329,6 +339,8 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
             if not active.any():
                 break
         if every and (n % every == 0):
+            if watched:
+                flush(n + 2)
             for b in buffers:
                 b.n = n + 2
             if control.stopped:
@@ -344,10 +356,31 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
         if pbar is not None and n % 500 == 0:
             pbar.update(min(500, N - pbar.n))
     wall = time.perf_counter() - t0
+    flush(N + 1)
     if pbar is not None:
         pbar.close()
     return _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, active,
                    n + 1, wall, reference, stewart, specimen, nthread)
+
+
+def _check_command(num, z, zd, az, active, base, is_rot, lim_z, lim_v, lim_x, dt, n, halt):
+    """Find which test left which command limit and stop it (see :func:`_run_group`)."""
+    for k in np.flatnonzero(active):
+        tk = (n + 1) * dt
+        xk = num.x[k]
+        if not np.all(np.isfinite(xk)) or np.abs(xk).max() > lim_x:
+            halt(k, SafetyStop("divergence: numerical displacement |x|",
+                               float(np.nanmax(np.abs(xk))), lim_x, tk, k, "m"), n)
+            continue
+        for j, d in enumerate(base.dofs):
+            u = "rad" if is_rot[j] else "m"
+            if az[k, j] > lim_z[j]:
+                halt(k, SafetyStop(f"stroke: commanded {d}", z[k, j], lim_z[j], tk, k, u), n)
+                break
+            if abs(zd[k, j]) > lim_v[j]:
+                halt(k, SafetyStop(f"velocity: commanded {d} rate", zd[k, j], lim_v[j], tk,
+                                   k, "m/s"), n)
+                break
 
 
 def _run_kernel(kernel, num, transfer, base: Scene, data, buffers, control, every, halt_info):
@@ -435,7 +468,10 @@ def _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, a
             b.meta["status"] = "stopped"
             b.meta["reason"] = reasons[k]
         b.meta["rtf"] = rtf
-        rec = b.to_record()
+        # the record's columns are views of the loop's array (no copy of K × N × columns)
+        d = b.data[: b.n]
+        rec = Record(d[:, 0], {c: d[:, i] for i, c in enumerate(b.columns) if i},
+                     dict(b.meta))
         if not reference:
             for d in base.dofs:
                 rec.columns.pop(f"z_ref.{d}", None)

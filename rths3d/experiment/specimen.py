@@ -43,7 +43,19 @@ class Specimen1D:
         self.f_contact = np.zeros(K)
         self._inv_m = 1.0 / self.m
         self._zm_prev = np.zeros(K)
-        self._tmp = np.zeros(K)
+        h = self.dt / self.substeps
+        # per-substep velocity increments per unit displacement / velocity (no divisions
+        # in the hot loop)
+        self._kh = self.k * h / self.m
+        self._dh = self.d * h / self.m
+        self._kch = self.kc * h / self.m
+        self._dch = self.dc * h / self.m
+        self._has_d = bool(np.any(self.d != 0.0))
+        self._has_contact = bool(np.any(np.isfinite(self.h0)))
+        self._h0 = np.where(np.isfinite(self.h0), self.h0, 1e300)
+        self._fc = np.zeros(K)
+        self._pen = np.zeros(K)
+        self._dv = np.zeros(K)
 
     def reset(self) -> None:
         """Rest at static equilibrium."""
@@ -77,9 +89,21 @@ class Specimen1D:
         x, v = self.x, self.v
         if self.method == "euler":
             dz = (a1 - a0) / ns
+            fc, pen, dv = self._fc, self._pen, self._dv
             for j in range(ns):
-                acc = self._accel(a0 + j * dz, vm, x, v)
-                v += acc * h
+                # dv = h/m · (k (z_m − x) + d (ż_m − ẋ) − F_c), F_c ≥ 0 only in contact
+                np.subtract(a0 + j * dz, x, out=dv) if j else np.subtract(a0, x, out=dv)
+                dv *= self._kh
+                if self._has_d:
+                    dv += self._dh * (vm - v)
+                if self._has_contact:
+                    np.subtract(x, self._h0, out=pen)
+                    np.multiply(self._kch, pen, out=fc)
+                    fc += self._dch * v
+                    np.maximum(fc, 0.0, out=fc)
+                    fc *= pen > 0.0
+                    dv -= fc
+                v += dv
                 x += v * h
         else:
             for j in range(ns):

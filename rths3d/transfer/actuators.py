@@ -89,8 +89,9 @@ class LTIActuator:
         self.Bd = Bd[:, 0].copy()
         self.Cd = Cd[0].copy()
         self.Dd = float(Dd[0, 0])
-        self.x = np.zeros((K, n, self.ns))
+        self.x = np.zeros((K * n, self.ns))  # channels × states: one matmul per step
         self.y = np.zeros((K, n))
+        self._y2 = self.y.reshape(K * n)
         self.num, self.den = num, den
         self.dcgain = float(num[-1] / den[-1]) if den[-1] != 0 else math.inf
 
@@ -100,10 +101,11 @@ class LTIActuator:
 
     def __call__(self, u: np.ndarray) -> np.ndarray:
         """Apply command u(t_n) (held until t_{n+1}); return the output y(t_{n+1})."""
+        u2 = u.reshape(-1)
         x = self.x @ self.AdT
-        x += u[..., None] * self.Bd
+        x += u2[:, None] * self.Bd
         self.x = x
-        np.matmul(x, self.Cd, out=self.y)
+        np.matmul(x, self.Cd, out=self._y2)
         if self.Dd:
             self.y += self.Dd * u
         return self.y
