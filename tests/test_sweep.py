@@ -185,3 +185,27 @@ def test_stopped_and_invalid_tests_are_recorded_with_reason(tmp_path) -> None:
     assert bad.loc[9.62, "status"] == "ok"
     X, y, rows = training_data(f, 3)
     assert list(rows["family"]) == ["bad_mass"] and len(y) == 1
+
+
+def test_predict_on_a_kept_record_matches_table_row(tiny_spec, reference_table, tmp_path) -> None:
+    """With keep_records the per-test records are saved; `rths3d predict MODEL RECORD` computes
+    the record's features and predicts what the model predicts for that test's table row."""
+    import json
+    from dataclasses import replace
+
+    from rths3d.ann import FidelityANN
+    from rths3d.dataset import training_data
+
+    spec = replace(load_spec(tiny_spec), keep_records=True)
+    table = run_sweep(spec, tmp_path / "out", workers=1, progress=False)
+    X, y, rows = training_data(table, 3)
+    model = FidelityANN(topologies=((2,),), n_trainings=1, seed=0).fit(X, y)
+    model.save(tmp_path / "m.json")
+    tid = rows["test_id"].iloc[0]
+    rec = tmp_path / "out" / "records" / f"{tid}.parquet"
+    assert rec.is_file()
+    p = subprocess.run([sys.executable, "-m", "rths3d", "predict", str(tmp_path / "m.json"),
+                        str(rec), "--json"], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    got = json.loads(p.stdout)["prediction"][0]
+    assert got == pytest.approx(float(model.predict(X.iloc[:1], warn=False)[0]), rel=1e-9)
