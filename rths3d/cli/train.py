@@ -49,6 +49,9 @@ def train(
     exclude: list[str] = typer.Option(None, "--exclude", help="Leave these families out."),
     target: str = typer.Option("e_rel_ref", "--target", help="Target column (target.<name>)."),
     plot: Path = typer.Option(None, "--plot", help="Write regression/prediction plots (PNG)."),
+    transform: str = typer.Option("linear", "--transform",
+                                  help="linear (the paper's [-1, 1] map) or log (compress "
+                                       "heavy-tailed features and target first)."),
 ) -> None:
     """Train the fidelity ANN (LM, early stopping, 70/15/15, topology search, 5 trainings).
 
@@ -64,7 +67,7 @@ def train(
     if len(y) < 10:
         raise ConfigError("table", f"{len(y)} usable rows", "need at least 10 finished tests")
     model = FidelityANN(topologies=_parse_topologies(topologies), n_trainings=trainings,
-                        seed=seed)
+                        seed=seed, transform=transform)
     model.target_name = target
     model.fit(X, y, progress=not as_json)
     model.save(out)
