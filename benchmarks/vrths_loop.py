@@ -7,6 +7,8 @@ Prints ONE JSON line:
   rtf_reference      the reference solution z^r of one test
   batch_rtf_stewart  K_stewart tests stepped together on the platform (aggregate)
   batch_rtf_lti      K_lti tests stepped together on the LTI path (aggregate)
+  bare_rtf_stewart, batch_bare_rtf_stewart   the machine's limits measured in the same run:
+                     bare mj_step of the model, and raw mujoco.batch stepping of K_stewart
 Medians over repeats; ratios measured side by side in one run. ``--quick``: 2 s tests, one
 repeat (figures noisier).
 """
@@ -26,7 +28,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="2 s tests, one repeat")
     ap.add_argument("--k-stewart", type=int, default=64)
-    ap.add_argument("--k-lti", type=int, default=1024)
+    ap.add_argument("--k-lti", type=int, default=512)
     args = ap.parse_args()
 
     import mujoco
@@ -40,7 +42,7 @@ def main() -> None:
     sc = load_scene(REPO / "scenes" / "paper_contact.toml", [f"duration={duration}"])
     med = statistics.median
 
-    rtf_st, ratio, rtf_lti = [], [], []
+    rtf_st, ratio, rtf_lti, bare_rtf = [], [], [], []
     for _ in range(reps):
         r = run(sc, "stewart", reference=False)
         rtf_st.append(r.rtf)
@@ -56,6 +58,7 @@ def main() -> None:
             step(m, d)
         bare = time.perf_counter() - t0
         ratio.append(r.wall / bare)
+        bare_rtf.append(sc.duration / bare)
         rtf_lti.append(run(sc, "lti", reference=False).rtf)
     t0 = time.perf_counter()
     reference_solution([sc])
@@ -70,6 +73,17 @@ def main() -> None:
         return K * sc.duration / wall
 
     b_st = med([batch("stewart", args.k_stewart) for _ in range(reps)])
+    # the machine's limit for that batch: raw mujoco.batch stepping of the same model, no loop
+    from mujoco.batch import Batch
+
+    from rths3d.transfer.systems import StewartTransfer
+
+    raw = Batch(StewartTransfer(sc, 1).sim.model, args.k_stewart, nthread=2)
+    nraw = int(sc.n_steps * sc.transfer.substeps / 10)
+    t0 = time.perf_counter()
+    for _ in range(nraw):
+        raw.step()
+    b_bare = args.k_stewart * nraw * sc.dt / sc.transfer.substeps / (time.perf_counter() - t0)
     b_lti = med([batch("lti", args.k_lti) for _ in range(reps)])
     print(json.dumps({
         "rtf_stewart": round(med(rtf_st), 2),
@@ -77,6 +91,8 @@ def main() -> None:
         "rtf_lti": round(med(rtf_lti), 2),
         "rtf_reference": round(rtf_ref, 2),
         "batch_rtf_stewart": round(b_st, 1),
+        "bare_rtf_stewart": round(med(bare_rtf), 2),
+        "batch_bare_rtf_stewart": round(b_bare, 1),
         "batch_rtf_lti": round(b_lti, 1),
         "k_stewart": args.k_stewart, "k_lti": args.k_lti, "duration_s": duration,
         "quick": args.quick,

@@ -159,3 +159,15 @@ def test_live_buffer_and_user_stop():
     r = result["r"]
     assert r.status == "stopped" and "user" in r.reason
     assert 100 < r.record.n < sc.n_steps
+
+
+@pytest.mark.parametrize("kind", ["lti", "delay", "stewart"])
+def test_single_test_kernel_equals_batched_path(kind):
+    """The generated single-test kernel gives the same record as the batched path."""
+    if kind == "stewart":
+        pytest.importorskip("rths3d.platform.sim")
+    sc = load_scene(SCENES / "paper_contact.toml", ["duration=1.0", "transfer.delay=0.0025"])
+    one = run(sc, kind, reference=False).record
+    two = run_batch(sc, [{}, {}], kind, reference=False)[0].record
+    for c in two.columns:
+        np.testing.assert_allclose(one.columns[c], two.columns[c], rtol=0, atol=1e-9)
