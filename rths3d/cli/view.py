@@ -27,6 +27,8 @@ def view(
     seconds: float = typer.Option(0.0, help="Serve this long (s) and exit; 0 = until Ctrl-C."),
     out: str = typer.Option("", help="Live run: save the record here on exit "
                             "(.parquet/.csv)."),
+    set_: list[str] = typer.Option([], "--set", help="Live run: scene override KEY=VALUE "
+                                   "(dotted keys, e.g. numerical.k=5000; repeatable)."),
 ) -> None:
     """Watch a hybrid test in the browser: run SCENE live, or replay a saved RECORD.
 
@@ -36,6 +38,7 @@ def view(
     part, a ghost of the numerical substructure and the interface force, the SSP (z' against
     z), time histories of z, z', z^r and F'_m, and running measures.
     """
+    import sys
     import time
 
     from ..errors import ConfigError
@@ -57,10 +60,12 @@ def view(
         from ..viz.live import LiveRun
 
         run = LiveRun.from_scene(target, transfer=transfer or None, speed=speed,
-                                 out=out or None)
-        viewer = run.viewer(**common)
+                                 out=out or None, overrides=set_)
+        # The page is served from its own process so that watching does not slow the loop.
+        viewer = run.view_process(**common)
     viewer.start()
     typer.echo(f"rths3d view: {viewer.url}  (Ctrl-C to stop)", err=False)
+    sys.stdout.flush()
     try:
         if seconds > 0:
             time.sleep(seconds)

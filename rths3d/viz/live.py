@@ -37,18 +37,31 @@ CHECK_EVERY = 20
 """Steps between the loop's looks at its control (pacing, pause, stop, buffer length)."""
 
 
+PUBLISH_RATE = 30.0
+"""Most copies per second of new samples to a view process."""
+
+
 class PacedControl(LoopControl):
-    """Pause / stop like :class:`LoopControl`, plus pacing at ``speed`` × real time.
+    """Pause / stop like :class:`LoopControl`, plus pacing at ``speed`` × real time, plus
+    publishing new samples to a view process.
 
     ``speed = 0`` runs as fast as the machine allows. Pacing is anchored afresh after every
-    pause or speed change, so a resumed run does not race to catch up.
+    pause or speed change, so a resumed run does not race to catch up. With a
+    ``stream_factory`` the loop's own thread, at its control checks (every CHECK_EVERY steps)
+    and at most PUBLISH_RATE times a second, copies the rows written since the last copy into
+    the shared-memory stream the factory made for its buffer: no other thread of the loop's
+    process wakes up to feed the view, so the loop never waits for the GIL because of it.
     """
 
-    def __init__(self, buffers: list[RecordBuffer], speed: float = 1.0):
+    def __init__(self, buffers: list[RecordBuffer], speed: float = 1.0,
+                 stream_factory: Any = None):
         super().__init__(realtime=False, every=CHECK_EVERY)
         self._buffers = buffers
         self._anchor: tuple[float, float] | None = None
         self.speed = _check_speed(speed)
+        self._factory = stream_factory
+        self._stream: Any = None
+        self._next_publish = 0.0
 
     def set_speed(self, speed: float) -> None:
         """Run at ``speed`` × real time from now on (0: unpaced)."""
@@ -60,6 +73,13 @@ class PacedControl(LoopControl):
         self._anchor = None
 
     def wait(self) -> None:
+        if self._factory is not None and self._buffers:
+            if self._stream is None:
+                self._stream = self._factory(self._buffers[0])
+            now = time.perf_counter()
+            if now >= self._next_publish:
+                self._stream.publish()
+                self._next_publish = now + 1.0 / PUBLISH_RATE
         super().wait()
         if self.speed <= 0 or not self._buffers:
             return
@@ -82,12 +102,13 @@ def _check_speed(speed: float) -> float:
     return s
 
 
-def load_target(target: str) -> Scene:
-    """A scene from a TOML path or a scene name (``paper_contact``)."""
+def load_target(target: str, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
+    """A scene from a TOML path or a scene name (``paper_contact``), with ``KEY=VALUE``
+    overrides."""
     if Path(target).suffix.lower() not in ("", ".toml"):
         raise ConfigError("scene", target, "expected a scene (.toml or name) or a record "
                           "(.parquet/.csv)")
-    return load_scene(target)
+    return load_scene(target, list(overrides))
 
 
 class LiveRun:
@@ -106,33 +127,40 @@ class LiveRun:
         first browser connects, so nobody misses the start).
     out:
         Save the record of the last run there on :meth:`close` (.parquet/.csv).
+    reference:
+        Compute the reference solution z^r when a run ends (the loop does it then; the view
+        shows z^r from that moment).
     """
 
     def __init__(self, scene: Scene, *, transfer: str | None = None, speed: float = 1.0,
-                 start_paused: bool = False, out: str | None = None):
+                 start_paused: bool = False, out: str | None = None, reference: bool = True):
         self.scene = scene.with_transfer(transfer) if transfer else scene
         self.speed = _check_speed(speed)
         self.start_paused = start_paused
         self.out = out
+        self.reference = reference
         self.result: RunResult | None = None
         self.error: BaseException | None = None
         self._thread: threading.Thread | None = None
         self._buffers: list[RecordBuffer] = []
+        self.stream_factory: Any = None
+        """Set by a view process: makes the shared stream of each new run's buffer."""
         self.control = PacedControl(self._buffers, self.speed)
 
     @classmethod
     def from_scene(cls, target: str, *, transfer: str | None = None, speed: float = 1.0,
-                   out: str | None = None) -> LiveRun:
+                   out: str | None = None, overrides: list[str] | tuple[str, ...] = ()
+                   ) -> LiveRun:
         """A live run of a scene file or name, paused until a browser connects."""
-        return cls(load_target(target), transfer=transfer, speed=speed, start_paused=True,
-                   out=out)
+        return cls(load_target(target, overrides), transfer=transfer, speed=speed,
+                   start_paused=True, out=out)
 
     # ------------------------------------------------------------------ running
     def start(self, timeout: float = 60.0) -> RecordBuffer:
         """Start the loop; returns its buffer as soon as the loop has created it."""
         self._buffers.clear()
         self.result, self.error = None, None
-        self.control = PacedControl(self._buffers, self.speed)
+        self.control = PacedControl(self._buffers, self.speed, self.stream_factory)
         if self.start_paused:
             self.control.pause()
         self._thread = threading.Thread(target=self._work, name="rths3d-loop", daemon=True)
@@ -150,7 +178,8 @@ class LiveRun:
 
     def _work(self) -> None:
         try:
-            self.result = run(self.scene, control=self.control, buffers=self._buffers)
+            self.result = run(self.scene, reference=self.reference, control=self.control,
+                              buffers=self._buffers)
         except RthsError as exc:  # bad scene value: keep it for the caller / status line
             self.error = exc
         except BaseException as exc:  # noqa: BLE001 — reported through status()
@@ -230,6 +259,15 @@ class LiveRun:
                     continue
                 out[name] = (float(v), lo, max(hi, float(v)), step)
         return out
+
+    def view_process(self, **kwargs: Any):
+        """A live view of this run served from its own process (see :mod:`.process`);
+        call ``start()`` on it (which starts the run)."""
+        from .process import ViewProcess
+
+        kwargs.setdefault("title", f"rths3d · {self.scene.name}")
+        kwargs.setdefault("speed", self.speed or 1.0)
+        return ViewProcess(self, **kwargs)
 
     def viewer(self, **kwargs: Any) -> Viewer:
         """A live :class:`Viewer` of this run with run controls (starts the run)."""

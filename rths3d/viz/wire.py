@@ -59,9 +59,11 @@ class HeadlessClient:
     :meth:`close`.
     """
 
-    def __init__(self, port: int, host: str = "127.0.0.1"):
+    def __init__(self, port: int, host: str = "127.0.0.1", *, keep: bool = True):
         import viser
 
+        self.keep = keep
+        """Decode and keep every message (False: only count frames, as cheap as possible)."""
         self.url = f"ws://{host}:{port}"
         self.subprotocol = f"viser-v{viser.__version__}"
         self.messages: list[dict[str, Any]] = []
@@ -96,7 +98,7 @@ class HeadlessClient:
                     except TimeoutError:
                         continue
                     if isinstance(frame, bytes):
-                        msgs = decode_frame(frame)
+                        msgs = decode_frame(frame) if self.keep else []
                         with self._lock:
                             self.frames += 1
                             self.messages.extend(msgs)
