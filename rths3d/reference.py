@@ -7,7 +7,8 @@ drives the experimental part's mount linearly from z_n to z_{n+1}, its restoring
 F_{n+1} at t_{n+1} goes into the numerical substructure, which is stepped with the interface
 force interpolated linearly from F_n to F_{n+1} (exact discretisation of the state space with
 first-order hold, implicit in F_{n+1}); both states are reset and the step repeated with the
-new z_{n+1} until |Δz| < ``tol``. At convergence the mount displacement equals the numerical
+new z_{n+1} until |Δz| < ``tol`` (or, for the MuJoCo part, until the iteration stagnates at
+its contact solver's noise, ~1e-9 m). At convergence the mount displacement equals the numerical
 interface displacement and the force is the same on both sides at every sample.
 
 The 1-D parts use the numpy specimen with classical Runge–Kutta substeps; the multi-DOF part
@@ -27,7 +28,7 @@ REFERENCE_SUBSTEPS = 2
 """RK4 substeps per interface step of the numpy specimen in the reference."""
 
 
-def reference_solution(scenes: list[Scene], *, tol: float = 1e-12, max_iter: int = 30,
+def reference_solution(scenes: list[Scene], *, tol: float = 1e-11, max_iter: int = 30,
                        nthread: int = 0, progress: bool = False, specimen: str = "auto"
                        ) -> dict[str, np.ndarray]:
     """z^r for K tests that share dt, duration, DOFs and experiment kind.
@@ -74,6 +75,7 @@ def reference_solution(scenes: list[Scene], *, tol: float = 1e-12, max_iter: int
         z_n = num.z.copy()
         z1 = 2.0 * z_n - z_prev
         it = 0
+        prev = np.inf
         for it in range(max_iter):  # noqa: B007 (it is the iteration count after the loop)
             spec.set_state(ss)
             f1 = spec.advance(z_n, z1).copy()
@@ -81,8 +83,10 @@ def reference_solution(scenes: list[Scene], *, tol: float = 1e-12, max_iter: int
             num.step(n, f_n, f1)
             err = float(np.max(np.abs(num.z - z1)))
             z1 = num.z.copy()
-            if err <= tol:
+            # converged, or stagnating at the part's own solver noise (MuJoCo contact)
+            if err <= tol or (it >= 3 and err > 0.5 * prev):
                 break
+            prev = err
         iters = max(iters, it + 1)
         if it > 0 and err > tol:
             # last numerical step used the converged force; re-run the part to match z1

@@ -105,6 +105,8 @@ class Specimen1D:
                     dv -= fc
                 v += dv
                 x += v * h
+        elif self.K == 1:
+            self._rk4_scalar(float(a0[0]), float(a1[0]), float(vm[0]), h)
         else:
             for j in range(ns):
                 zs = a0 + (a1 - a0) * (j / ns)
@@ -121,3 +123,33 @@ class Specimen1D:
         self._zm_prev[:] = a1
         self.f[:, 0] = self.k * (a1 - x) + self.d * (vm - v)
         return self.f
+
+    def _rk4_scalar(self, a0: float, a1: float, vm: float, h: float) -> None:
+        """RK4 of one test in plain floats (the reference's hot path; same formulas)."""
+        m, k, d = float(self.m[0]), float(self.k[0]), float(self.d[0])
+        h0, kc, dc = float(self.h0[0]), float(self.kc[0]), float(self.dc[0])
+        im = 1.0 / m
+        x, v = float(self.x[0]), float(self.v[0])
+        ns = self.substeps
+
+        def acc(zm: float, x: float, v: float) -> float:
+            fc = 0.0
+            if x > h0:
+                fc = kc * (x - h0) + dc * v
+                if fc < 0.0:
+                    fc = 0.0
+            return (k * (zm - x) + d * (vm - v) - fc) * im
+
+        dz = a1 - a0
+        for j in range(ns):
+            zs = a0 + dz * (j / ns)
+            zh = a0 + dz * ((j + 0.5) / ns)
+            ze = a0 + dz * ((j + 1.0) / ns)
+            k1v = acc(zs, x, v)
+            k2x, k2v = v + 0.5 * h * k1v, acc(zh, x + 0.5 * h * v, v + 0.5 * h * k1v)
+            k3x, k3v = v + 0.5 * h * k2v, acc(zh, x + 0.5 * h * k2x, v + 0.5 * h * k2v)
+            k4x, k4v = v + h * k3v, acc(ze, x + h * k3x, v + h * k3v)
+            x += h / 6.0 * (v + 2 * k2x + 2 * k3x + k4x)
+            v += h / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v)
+        self.x[0] = x
+        self.v[0] = v
