@@ -254,7 +254,7 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
             stop_row[0] = halt_info["row"]
             reasons[0] = halt_info["reason"]
         return _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons,
-                       active, steps_done, wall, reference, stewart, specimen, nthread)
+                       active, steps_done, wall, reference, stewart, specimen, nthread, progress)
     t0 = time.perf_counter()
     pbar = None
     if progress:
@@ -360,7 +360,7 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
     if pbar is not None:
         pbar.close()
     return _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, active,
-                   n + 1, wall, reference, stewart, specimen, nthread)
+                   n + 1, wall, reference, stewart, specimen, nthread, progress)
 
 
 def _check_command(num, z, zd, az, active, base, is_rot, lim_z, lim_v, lim_x, dt, n, halt):
@@ -441,7 +441,8 @@ def _run_kernel(kernel, num, transfer, base: Scene, data, buffers, control, ever
 
 
 def _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, active,
-            steps_done, wall, reference, stewart, specimen, nthread) -> list[RunResult]:
+            steps_done, wall, reference, stewart, specimen, nthread,
+            progress=False) -> list[RunResult]:
     base = scenes[0]
     K = len(scenes)
     dt = base.dt
@@ -455,7 +456,7 @@ def _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, a
         # the reference uses the same model of the part as the test: on the platform the
         # MuJoCo part, on the fast path the numpy one (documented in docs/loop.md)
         rspec = "mujoco" if (stewart or specimen == "mujoco") else "auto"
-        ref = reference_solution(scenes, nthread=nthread, specimen=rspec)
+        ref = reference_solution(scenes, nthread=nthread, specimen=rspec, progress=progress)
         s_zr = slice(ci[f"z_ref.{base.dofs[0]}"], ci[f"z_ref.{base.dofs[0]}"] + nd)
         s_xr = slice(ci["x_ref.0"], ci["x_ref.0"] + num.n)
         data[:, :, s_zr] = ref["z_ref"].transpose(1, 0, 2)

@@ -35,7 +35,15 @@ def _plot(record, path: Path) -> Path:
                     ls=":", color="k")
         ax.set_xlabel("t (s)")
         ax.set_ylabel(f"{d} ({unit})")
-        ax.legend(loc="upper right", fontsize=8)
+        ax.legend(loc="upper left", fontsize=8)
+        # the errors are thousands of times smaller than the motion: own axis, in µ-units
+        axe = ax.twinx()
+        axe.plot(t, (z - zm) * 1e3, color="C3", lw=0.6, alpha=0.7, label="z − z' (tracking)")
+        if f"z_ref.{d}" in record.columns:
+            axe.plot(t, (z - record.columns[f"z_ref.{d}"] * scale) * 1e3, color="C2", lw=0.6,
+                     alpha=0.7, label="z − z^r (reference)")
+        axe.set_ylabel(f"error ({'µrad' if d.startswith('r') else 'µm'})")
+        axe.legend(loc="upper right", fontsize=8)
         ax.grid(alpha=0.3)
         ax2 = axes[i, 1]
         ax2.plot(z, zm, lw=0.8)
