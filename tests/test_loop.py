@@ -171,3 +171,26 @@ def test_single_test_kernel_equals_batched_path(kind):
     two = run_batch(sc, [{}, {}], kind, reference=False)[0].record
     for c in two.columns:
         np.testing.assert_allclose(one.columns[c], two.columns[c], rtol=0, atol=1e-9)
+
+
+def test_cli_run_json_and_plot(tmp_path):
+    """`rths3d run --json --plot --out` prints one JSON object with the documented keys,
+    writes the record and a PNG."""
+    import json
+    import subprocess
+    import sys
+
+    out = tmp_path / "rec.parquet"
+    p = subprocess.run([sys.executable, "-m", "rths3d", "run", str(SCENES / "paper_contact.toml"),
+                        "--transfer", "lti", "--set", "duration=1.0", "--json", "--out", str(out),
+                        "--plot", str(tmp_path)], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    lines = [ln for ln in p.stdout.splitlines() if ln.strip()]
+    assert len(lines) == 1
+    res = json.loads(lines[0])
+    for key in ("status", "reason", "e_rel_ref", "e_rel_track", "fei_d", "rtf", "out"):
+        assert key in res
+    assert res["status"] == "ok" and res["reason"] == ""
+    assert 0 < res["e_rel_ref"] < 0.05 and res["rtf"] > 1
+    assert Record.load(out).meta["transfer"] == "lti"
+    assert Path(res["plot"]).stat().st_size > 10_000
