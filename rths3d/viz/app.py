@@ -142,8 +142,8 @@ class Viewer:
         self.server = viser.ViserServer(host=self._host, port=self._port, verbose=False)
         self.server.gui.configure_theme(control_width="large", dark_mode=False,
                                         show_logo=False)
-        self.server.initial_camera.position = (1.05, -1.25, 0.95)
-        self.server.initial_camera.look_at = (-0.22, 0.0, 0.32)
+        self.server.initial_camera.position = (0.9, -1.05, 0.8)
+        self.server.initial_camera.look_at = (-0.2, 0.0, 0.36)
         # Replay from the start (or let a paused live run begin) for whoever opens the page
         # first.
         first = threading.Event()

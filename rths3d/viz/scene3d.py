@@ -194,6 +194,7 @@ class PlatformScene:
             position=(0, 0, self.spring_base + sp.spring_length + sp.mass_size / 2))
         self.mass_top_home = float(self.home[2] + self.spring_base + sp.spring_length
                                    + sp.mass_size)
+        self.contact = None
         if sp.contact_gap is not None:
             self._add_contact_surface(sp.contact_gap)
         # A model's prediction of the plate (diagnosis records): a translucent twin.
@@ -222,12 +223,20 @@ class PlatformScene:
 
     # ------------------------------------------------------------------ construction
     def _add_contact_surface(self, gap: float) -> None:
-        z = self.mass_top_home + gap
-        self.server.scene.add_box("/experiment/contact_surface", dimensions=(0.30, 0.30, 0.015),
-                                  color=CONTACT_COLOR, opacity=0.85,
-                                  position=(0.0, 0.0, z + 0.0075))
-        self.server.scene.add_label("/experiment/contact_label", "contact surface",
-                                    anchor="bottom-left", position=(0.16, -0.15, z + 0.02))
+        # World-fixed, h_0 above the mass top at equilibrium; drawn k·h_0 above it so that the
+        # exaggerated mass touches it exactly when the real one does.
+        self.contact_gap = gap
+        z = self._contact_z()
+        self.contact = self.server.scene.add_box(
+            "/experiment/contact_surface", dimensions=(0.30, 0.30, 0.015), color=CONTACT_COLOR,
+            opacity=0.85, position=(0.0, 0.0, z + 0.0075))
+        self.contact_label = self.server.scene.add_label(
+            "/experiment/contact_label", "contact surface", anchor="bottom-right",
+            position=(-0.16, 0.0, z + 0.02))
+        self._contact_k = self.exaggeration
+
+    def _contact_z(self) -> float:
+        return self.mass_top_home + self.exaggeration * float(self.contact_gap)
 
     def _add_ghost(self, ndof: int) -> None:
         import trimesh
@@ -316,6 +325,11 @@ class PlatformScene:
                          0.2 * sp.spring_length)
             self.spring.scale = (1.0, 1.0, length)
             self.mass.position = (0.0, 0.0, self.spring_base + length + sp.mass_size / 2)
+        if self.contact is not None and self._contact_k != k:
+            z = self._contact_z()
+            self.contact.position = (0.0, 0.0, z + 0.0075)
+            self.contact_label.position = (-0.16, 0.0, z + 0.02)
+            self._contact_k = k
         # Wrench arrows from the sensor site.
         origin = centre + R @ (np.array(ARROW_OFFSET) + [0.0, 0.0, self.geometry.fts_height])
         if any(c >= 0 for c in self._force_cols):
