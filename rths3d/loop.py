@@ -197,7 +197,7 @@ def _columns(dofs: Sequence[str], n: int, stewart: bool) -> list[str]:
 # ---------------------------------------------------------------------------- the loop
 def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
                control: LoopControl | None, buffers_out: list | None,
-               progress: bool, specimen: str) -> list[RunResult]:
+               progress: bool, specimen: str, numerical=None) -> list[RunResult]:
     from .transfer import build_transfer
 
     base = scenes[0]
@@ -205,7 +205,7 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
     N = base.n_steps
     dt = base.dt
     nd = len(base.dofs)
-    num = build_numerical(scenes)
+    num = numerical(scenes) if numerical is not None else build_numerical(scenes)
     transfer = build_transfer(base, K, [s.experiment for s in scenes], nthread=nthread,
                               specimen=specimen)
     stewart = base.transfer.kind == "stewart"
@@ -245,7 +245,10 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
     transfer.reset()
     f = np.zeros((K, nd))
     every = control.every if control is not None else 0
-    kernel = _fast_kernel(num, transfer, base, ci) if K == 1 else None
+    from .numerical import LinearSubstructure
+
+    kernel = _fast_kernel(num, transfer, base, ci) \
+        if K == 1 and isinstance(num, LinearSubstructure) else None
     if kernel is not None:
         steps_done, wall = _run_kernel(kernel, num, transfer, base, data, buffers, control,
                                        every, halt_info := {})
@@ -254,7 +257,8 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
             stop_row[0] = halt_info["row"]
             reasons[0] = halt_info["reason"]
         return _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons,
-                       active, steps_done, wall, reference, stewart, specimen, nthread, progress)
+                       active, steps_done, wall, reference, stewart, specimen, nthread, progress,
+                       numerical)
     t0 = time.perf_counter()
     pbar = None
     if progress:
@@ -267,8 +271,11 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
             active[k] = False
             stop_row[k] = row
             reasons[k] = stop.reason
-            num.P[k] = 0.0
-            num.s[k] = 0.0
+            if hasattr(num, "halt"):
+                num.halt(k)
+            else:  # a stopped test rests (its load and state zeroed), the others go on
+                num.P[k] = 0.0
+                num.s[k] = 0.0
 
     n = 0
     # per-signal histories: contiguous (K, ·) block writes per step, copied into the record
@@ -360,7 +367,7 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
     if pbar is not None:
         pbar.close()
     return _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, active,
-                   n + 1, wall, reference, stewart, specimen, nthread, progress)
+                   n + 1, wall, reference, stewart, specimen, nthread, progress, numerical)
 
 
 def _check_command(num, z, zd, az, active, base, is_rot, lim_z, lim_v, lim_x, dt, n, halt):
@@ -442,7 +449,7 @@ def _run_kernel(kernel, num, transfer, base: Scene, data, buffers, control, ever
 
 def _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, active,
             steps_done, wall, reference, stewart, specimen, nthread,
-            progress=False) -> list[RunResult]:
+            progress=False, numerical=None) -> list[RunResult]:
     base = scenes[0]
     K = len(scenes)
     dt = base.dt
@@ -456,7 +463,8 @@ def _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, a
         # the reference uses the same model of the part as the test: on the platform the
         # MuJoCo part, on the fast path the numpy one (documented in docs/loop.md)
         rspec = "mujoco" if (stewart or specimen == "mujoco") else "auto"
-        ref = reference_solution(scenes, nthread=nthread, specimen=rspec, progress=progress)
+        ref = reference_solution(scenes, nthread=nthread, specimen=rspec, progress=progress,
+                                 numerical=numerical)
         s_zr = slice(ci[f"z_ref.{base.dofs[0]}"], ci[f"z_ref.{base.dofs[0]}"] + nd)
         s_xr = slice(ci["x_ref.0"], ci["x_ref.0"] + num.n)
         data[:, :, s_zr] = ref["z_ref"].transpose(1, 0, 2)
@@ -485,16 +493,22 @@ def _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, a
 
 def run(scene: Scene, transfer: str | None = None, *, reference: bool = True,
         control: LoopControl | None = None, buffers: list | None = None,
-        progress: bool = False, specimen: str = "auto", out: str | None = None) -> RunResult:
+        progress: bool = False, specimen: str = "auto", out: str | None = None,
+        numerical=None) -> RunResult:
     """Run one test of ``scene`` (optionally with another ``transfer`` kind).
 
     ``buffers``: a list that receives the test's :class:`RecordBuffer` as soon as the loop
     starts (for a live viewer). ``out``: write the record (``.parquet`` or ``.csv``).
+    ``numerical``: a factory ``scenes -> NumericalSubstructure`` to plug in a nonlinear
+    numerical substructure (used for the test and for its reference), e.g.
+    ``lambda s: CubicSpringSubstructure.from_scenes(s, k3=1e8)``; default: the scene's linear
+    ``M, C, K``.
     """
     if transfer is not None:
         scene = scene.with_transfer(transfer)
     res = _run_group([scene], reference=reference, nthread=1, control=control,
-                     buffers_out=buffers, progress=progress, specimen=specimen)[0]
+                     buffers_out=buffers, progress=progress, specimen=specimen,
+                     numerical=numerical)[0]
     if out:
         res.out = str(res.record.save(out))
     return res

@@ -29,21 +29,24 @@ REFERENCE_SUBSTEPS = 2
 
 
 def reference_solution(scenes: list[Scene], *, tol: float = 1e-11, max_iter: int = 30,
-                       nthread: int = 0, progress: bool = False, specimen: str = "auto"
-                       ) -> dict[str, np.ndarray]:
+                       nthread: int = 0, progress: bool = False, specimen: str = "auto",
+                       numerical=None) -> dict[str, np.ndarray]:
     """z^r for K tests that share dt, duration, DOFs and experiment kind.
 
     Returns arrays ``z_ref`` (K, N+1, n_if) in m/rad, ``f_ref`` (K, N+1, n_if) in N/N·m,
     ``x_ref`` (K, N+1, n) and ``iterations`` (max per step). ``specimen``: ``numpy``
     (RK4 penalty model, 1-D parts only), ``mujoco`` (the MuJoCo part, as mounted on the
-    platform) or ``auto`` (numpy for 1-D parts).
+    platform) or ``auto`` (numpy for 1-D parts). ``numerical``: factory of a plugged-in
+    numerical substructure (see :func:`rths3d.loop.run`).
     """
     from .loop import build_numerical
 
     base = scenes[0]
     K = len(scenes)
     N = base.n_steps
-    num = build_numerical(scenes, method="exact")
+    # a plugged-in substructure must integrate implicitly in F_{n+1} when given f_next
+    num = numerical(scenes) if numerical is not None else build_numerical(scenes,
+                                                                           method="exact")
     exps = [s.experiment for s in scenes]
     if base.experiment.kind == "multidof" or specimen == "mujoco":
         from .experiment.mujoco_specimen import MujocoSpecimen

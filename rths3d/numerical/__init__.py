@@ -14,8 +14,10 @@ from .linear import (
     discretise,
 )
 from .modal import coupled_fastest_eigenfrequency, fastest_eigenfrequency
+from .nonlinear import CubicSpringSubstructure
 
 __all__ = [
+    "CubicSpringSubstructure",
     "Discretisation",
     "LinearSubstructure",
     "NumericalSubstructure",
