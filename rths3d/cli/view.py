@@ -27,6 +27,9 @@ def view(
     seconds: float = typer.Option(0.0, help="Serve this long (s) and exit; 0 = until Ctrl-C."),
     out: str = typer.Option("", help="Live run: save the record here on exit "
                             "(.parquet/.csv)."),
+    autostart: bool = typer.Option(True, help="Live run: start when the first page connects "
+                                   "(--no-autostart: wait for Run / Resume on the page, to "
+                                   "choose the transfer system and parameters first)."),
     set_: list[str] = typer.Option([], "--set", help="Live run: scene override KEY=VALUE "
                                    "(dotted keys, e.g. numerical.k=5000; repeatable)."),
 ) -> None:
@@ -62,7 +65,7 @@ def view(
         run = LiveRun.from_scene(target, transfer=transfer or None, speed=speed,
                                  out=out or None, overrides=set_)
         # The page is served from its own process so that watching does not slow the loop.
-        viewer = run.view_process(**common)
+        viewer = run.view_process(autostart=autostart, **common)
     viewer.start()
     typer.echo(f"rths3d view: {viewer.url}  (Ctrl-C to stop)", err=False)
     sys.stdout.flush()

@@ -52,6 +52,8 @@ class RunControl:
     stop: Callable[[], None]
     set_speed: Callable[[float], None]
     status: Callable[[], str] = field(default=lambda: "")
+    paused: bool = False
+    """The run waits (paused) for the page's Resume or Run / restart."""
 
 
 class Viewer:
@@ -284,7 +286,7 @@ class Viewer:
                 for name, (v, lo, hi, st) in ctl.params.items()}
             run = gui.add_button("Run / restart")
             run.on_click(lambda _: self._restart_live())
-            self.pause_button = gui.add_button("Pause")
+            self.pause_button = gui.add_button("Resume" if ctl.paused else "Pause")
             self.pause_button.on_click(lambda _: self._toggle_live_pause())
             stop = gui.add_button("Stop")
             stop.on_click(lambda _: ctl.stop())

@@ -173,9 +173,10 @@ def child_main() -> None:
         params={k: tuple(v) for k, v in ctl["params"].items()},
         restart=restart, pause=lambda: send("pause"), resume=lambda: send("resume"),
         stop=lambda: send("stop"), set_speed=lambda s: send("speed", s),
-        status=lambda: status["text"])
+        status=lambda: status["text"], paused=not ctl.get("autostart", True))
     view = Viewer(SharedRecordBuffer(spec), live=True, control=control, **options)
-    view.on_first_client = lambda: send("resume")
+    if ctl.get("autostart", True):
+        view.on_first_client = lambda: send("resume")
     view.start()
     send("port", view.port)
     try:
@@ -199,13 +200,17 @@ class ViewProcess:
     """A live view of a :class:`~rths3d.viz.live.LiveRun` served from a child process.
 
     ``start()`` starts the run and the child and returns once the child's server listens
-    (``url``, ``port``). Every run the LiveRun starts afterwards (a restart from the page, or
+    (``url``, ``port``). A run that starts paused resumes when the first page connects
+    (``autostart``) or, with ``autostart=False``, when the page's *Resume* or *Run /
+    restart* (with the transfer system and parameters chosen there) is pressed. Every run
+    the LiveRun starts afterwards (a restart from the page, or
     ``run.start()`` from here) is shown automatically.
     """
 
     def __init__(self, run: Any, *, host: str = "127.0.0.1", port: int = 8080,
-                 rate: float = 30.0, **options: Any):
+                 rate: float = 30.0, autostart: bool = True, **options: Any):
         self.run = run
+        self.autostart = autostart
         self.options = dict(options, host=host, port=port, rate=rate)
         self.host = host
         self.port = 0
@@ -244,7 +249,7 @@ class ViewProcess:
         if not self._ready.wait(timeout):
             raise TimeoutError(f"the run did not reach its first control check in {timeout} s")
         ctl = {"transfers": TRANSFER_KINDS, "transfer": self.run.scene.transfer.kind,
-               "params": self.run.key_params()}
+               "params": self.run.key_params(), "autostart": self.autostart}
         proc = subprocess.Popen([sys.executable, "-m", "rths3d.viz.process"],
                                 stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
                                 bufsize=1)
