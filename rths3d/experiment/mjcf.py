@@ -7,9 +7,9 @@ world position of the FTS site at the home pose. Geometry is mirrored from paper
 ``h0`` above the mass's contact tip at static equilibrium. The joint springs carry
 ``springref`` so that gravity only preloads (equilibrium at q = 0).
 
-Contact uses MuJoCo's soft contact (frictionless, condim 1) tuned to the penalty law of the
-numpy model: natural frequency ω_c = √(k_c/m) and damping ratio ζ_c = d_c / (2√(k_c m)),
-impedance 0.99 (see ``contact_solref``).
+Contact uses MuJoCo's soft contact (frictionless, condim 1) set to the penalty law of the
+numpy model: negative solref (stiffness k_c/m, damping d_c/m, mass-normalised) with a small
+impedance (``CONTACT_IMPEDANCE``), see ``contact_solref``.
 
 ``specimen_model_xml`` builds a specimen-only model whose mount follows a prescribed motion
 (the ideal and LTI transfer systems): heavy mount joints for the interface DOFs driven each
@@ -17,8 +17,6 @@ physics step so that the mount reaches the commanded pose exactly.
 """
 
 from __future__ import annotations
-
-import math
 
 from ..scene import ExperimentConfig
 
@@ -31,19 +29,42 @@ CONTACT_GROUP = 4
 """contype/conaffinity bit used only by the specimen tip and its surface."""
 
 
+CONTACT_IMPEDANCE = 0.01
+"""MuJoCo solimp impedance d of the specimen contact. With a negative solref the contact
+acceleration is a = (1 − d)·a₀ + (k_c·p + d_c·ṗ)/m_eff (MuJoCo's soft-constraint law), so a
+small d makes it the penalty law of the numpy model up to d·a₀."""
+
+
+def _tip_mass(cfg: ExperimentConfig) -> float:
+    """Effective mass (kg) of the part at its contact tip, along the contact normal."""
+    if cfg.kind == "multidof":
+        return 1.0 / (1.0 / cfg.m + cfg.arm**2 / cfg.inertia)
+    return cfg.m
+
+
 def contact_solref(cfg: ExperimentConfig, mass: float | None = None) -> str:
-    """MuJoCo solref approximating the penalty contact (k_c, d_c) on mass ``m``."""
-    m = cfg.m if mass is None else mass
-    wc = math.sqrt(cfg.k_contact / m)
-    zeta = cfg.d_contact / (2.0 * math.sqrt(cfg.k_contact * m))
-    if zeta > 1e-6:
-        return f"{1.0 / (zeta * wc):.9g} {zeta:.9g}"
-    return f"{-wc * wc:.9g} 0"
+    """MuJoCo solref (negative: mass-normalised stiffness and damping) of the penalty
+    contact (k_c, d_c) at a tip of effective mass ``mass`` (default: the part's)."""
+    m = _tip_mass(cfg) if mass is None else mass
+    return f"{-cfg.k_contact / m:.9g} {-cfg.d_contact / m:.9g}"
 
 
 def _contact_attrs(cfg: ExperimentConfig) -> str:
+    if cfg.kind == "multidof":
+        # the bar's tip is light (m_eff ≈ 0.14 kg): the penalty law would ring at ~130 Hz
+        # against the platform's 1 ms step; MuJoCo's usual impedance-0.99 contact with the
+        # time constant and damping ratio of k_c on the bar's mass stays stable
+        m = cfg.m
+        wc = (cfg.k_contact / m) ** 0.5
+        zeta = max(cfg.d_contact / (2.0 * (cfg.k_contact * m) ** 0.5), 0.05)
+        ref = f"{1.0 / (zeta * wc):.9g} {zeta:.9g}"
+        imp = "0.99 0.99 0.001 0.5 2"
+    else:
+        d = CONTACT_IMPEDANCE
+        ref = contact_solref(cfg)
+        imp = f"{d} {d} 0.001 0.5 2"
     return (f'contype="{CONTACT_GROUP}" conaffinity="{CONTACT_GROUP}" condim="1" '
-            f'solref="{contact_solref(cfg)}" solimp="0.99 0.99 0.001 0.5 2" margin="0"')
+            f'solref="{ref}" solimp="{imp}" margin="0"')
 
 
 def payload_xml(cfg: ExperimentConfig) -> str:
