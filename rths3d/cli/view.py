@@ -11,7 +11,17 @@ from ._app import app
 RECORD_SUFFIXES = (".parquet", ".csv")
 
 
-@app.command()
+VIEW_HELP = (
+    "Watch a hybrid test in the browser: run SCENE live, or replay a saved RECORD.\n\n"
+    "Prints the address of the page. A live run waits for the first browser to connect, runs "
+    "at --speed × real time and can be paused, stopped and restarted from the page.\n\n"
+    "The view shows the platform, the sensor, the experimental part, a ghost of the numerical "
+    "substructure and the interface force, the SSP (z' against z), time histories of z, z', "
+    "z^r and F'_m, and running measures."
+)
+
+
+@app.command(help=VIEW_HELP)
 def view(
     target: str = typer.Argument(..., help="A saved record (.parquet/.csv) to replay, or a "
                                  "scene (TOML file or scene name) to run live."),
@@ -33,14 +43,7 @@ def view(
     set_: list[str] = typer.Option([], "--set", help="Live run: scene override KEY=VALUE "
                                    "(dotted keys, e.g. numerical.k=5000; repeatable)."),
 ) -> None:
-    """Watch a hybrid test in the browser: run SCENE live, or replay a saved RECORD.
-
-    Prints the address of the page. A live run waits for the first browser to connect, runs
-    at --speed × real time and can be paused, stopped and restarted from the page. The view
-    shows the platform, the sensor, the experimental
-    part, a ghost of the numerical substructure and the interface force, the SSP (z' against
-    z), time histories of z, z', z^r and F'_m, and running measures.
-    """
+    """Watch a hybrid test in the browser (help text: VIEW_HELP)."""
     import sys
     import time
 

@@ -27,11 +27,12 @@ class RunningMeasures:
     Parameters
     ----------
     meta:
-        Stream metadata; ``meta['experiment']['k_exp']`` (N/m, scalar or matrix) gives
-        E_strain for HSEM^S (its last diagonal entry for the DOF shown).
+        Stream metadata; ``meta['experiment']['k_exp']`` (N/m, scalar or matrix over
+        ``meta['dofs']``) gives E_strain for HSEM^S (the diagonal entry of the DOF shown).
     """
 
     def __init__(self, meta: dict[str, Any]):
+        self.dofs = list(meta.get("dofs") or [])
         exp = meta.get("experiment") or {}
         k = exp.get("k_exp") if isinstance(exp, dict) else None
         try:
@@ -51,11 +52,24 @@ class RunningMeasures:
         dt = float(data[i0 + 1, ch.t] - data[i0, ch.t])
         out["e_rel_track"] = _safe(lambda: float(e_rel_track(z, zm)))
         out["fei_delay"] = _safe(lambda: float(fei(z, zm, dt).d))
-        if ch.f_meas >= 0 and self.k_exp is not None:
+        k = self._stiffness(ch.dof)
+        if ch.f_meas >= 0 and k is not None:
             f = data[i0:i1, ch.f_meas]
-            kz = float(self.k_exp[-1, -1])
+            kz = k
             out["hsem_s"] = _safe(lambda: float(hsem(f, z, zm, kz)))
         return out
+
+    def _stiffness(self, dof: str) -> float | None:
+        """k_EXP of interface DOF ``dof`` (diagonal entry; N/m or N·m/rad), if known."""
+        k = self.k_exp
+        if k is None:
+            return None
+        if k.size == 1:
+            return float(k.reshape(-1)[0])
+        if dof in self.dofs and len(self.dofs) == k.shape[0]:
+            j = self.dofs.index(dof)
+            return float(k[j, j])
+        return None
 
     @staticmethod
     def markdown(values: dict[str, float] | None) -> str:

@@ -90,7 +90,9 @@ class SpecimenLayout:
         if isinstance(kmat, (list, tuple)) and kmat:
             try:
                 kz = np.atleast_2d(np.asarray(kmat, dtype=float))
-                k = float(kz[-1, -1]) if kz.size > 1 else float(kz.reshape(-1)[0])
+                dofs = list(meta.get("dofs") or [])
+                j = dofs.index("z") if "z" in dofs and len(dofs) == kz.shape[0] else -1
+                k = float(kz[j, j]) if (j >= 0 or kz.size == 1) else None
             except (TypeError, ValueError):
                 k = None
         if k is None:
