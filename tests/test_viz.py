@@ -278,7 +278,8 @@ def test_headless_client_sees_scene_and_plot_updates_while_test_runs():
     """While the real loop runs the paper's contact test on the Stewart platform (paced at
     real time) and the view serves it from its own process, a websocket client (subprotocol
     viser-v<version>) receives plate poses and SSP / history data that advance with the
-    samples the loop writes."""
+    samples the loop writes; after a restart with the LTI transfer system it follows the new
+    run."""
     from rths3d.loop import scene_with
     from rths3d.viz.live import LiveRun, load_target
 
@@ -292,9 +293,17 @@ def test_headless_client_sees_scene_and_plot_updates_while_test_runs():
             n_written = live.n
             running = run.running
             msgs = client.snapshot()
+            # The page's "Run / restart" with another transfer system: the view follows.
+            v._handle(("restart", "lti", {"numerical.k": 5000.0}))
+            time.sleep(1.5)
+            after = client.snapshot()[len(msgs):]
+            status = run.status()
     finally:
         v.stop()
         run.close()
+    assert "(lti)" in status
+    assert sum(m["type"] == "SetPositionMessage" and m["name"] == "/platform/top"
+               for m in after) >= 5
     assert running and 500 < n_written < live.data.shape[0]  # watched mid-test
     plate = [m["position"] for m in msgs
              if m["type"] == "SetPositionMessage" and m["name"] == "/platform/top"]
