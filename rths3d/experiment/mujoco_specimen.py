@@ -48,7 +48,9 @@ class MujocoSpecimen:
         lookup = {x: self.models[i] for i, x in enumerate(dict.fromkeys(xmls))}
         self.model = self.models[0]
         nthread = nthread or (2 if self.K >= 8 else 1)
-        self.batch = mujoco.batch.Batch(self.model, self.K, nthread=nthread)
+        # one test: a plain MjData (a batch's thread-pool dispatch costs more than the step)
+        self.batch = _Single(self.model) if self.K == 1 else \
+            mujoco.batch.Batch(self.model, self.K, nthread=nthread)
         if len(self.models) > 1:
             self.batch.set_models([lookup[x] for x in xmls])
         order = [d for d in _ORDER if d in self.dofs]
@@ -59,7 +61,7 @@ class MujocoSpecimen:
         self._qfrc = self.batch.bind("qfrc_applied")
         self._sens = self.batch.bind("sensordata")
         self._xmat = self.batch.bind("site_xmat")
-        self._time = self.batch.bind("time")
+        self._time = self.batch.bind("time") if self.K > 1 else None
         self._site = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, "fts")
         self._is_rot = np.array([d.startswith("r") for d in self.dofs])
         self._widx = np.array([("x", "y", "z", "rx", "ry", "rz").index(d) for d in self.dofs])
@@ -84,11 +86,16 @@ class MujocoSpecimen:
 
     def get_state(self) -> tuple[np.ndarray, ...]:
         """Copy of (qpos, qvel, time)."""
-        return (self._qpos.copy(), self._qvel.copy(), self._time.copy())
+        t = self._time.copy() if self._time is not None else np.array([self.batch.d.time])
+        return (self._qpos.copy(), self._qvel.copy(), t)
 
     def set_state(self, s: tuple[np.ndarray, ...]) -> None:
         """Restore a state from :meth:`get_state`."""
-        self._qpos[:], self._qvel[:], self._time[:] = s
+        self._qpos[:], self._qvel[:] = s[0], s[1]
+        if self._time is not None:
+            self._time[:] = s[2]
+        else:
+            self.batch.d.time = float(s[2][0])
 
     def advance(self, z0: np.ndarray, z1: np.ndarray) -> np.ndarray:
         """Drive the mount from ``z0`` to ``z1`` (K, n_if) linearly over ΔT; return F'_m."""
@@ -108,3 +115,26 @@ class MujocoSpecimen:
         self.wrench[:] = self._world_wrench() - self.preload
         self.f[:] = self.wrench[:, self._widx]
         return self.f
+
+
+class _Single:
+    """The part of the ``mujoco.batch.Batch`` interface used above, for one MjData."""
+
+    def __init__(self, model: mujoco.MjModel):
+        self.m = model
+        self.d = mujoco.MjData(model)
+
+    def bind(self, name: str) -> np.ndarray:
+        return getattr(self.d, name)[None]
+
+    def reset(self) -> None:
+        mujoco.mj_resetData(self.m, self.d)
+        mujoco.mj_forward(self.m, self.d)
+
+    def forward(self) -> None:
+        mujoco.mj_forward(self.m, self.d)
+
+    def step(self, stage: int = 0) -> None:
+        mujoco.mj_step(self.m, self.d)
+        if stage == mujoco.mjtStage.mjSTAGE_ACC:
+            mujoco.mj_forward(self.m, self.d)
