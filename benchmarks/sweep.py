@@ -44,11 +44,14 @@ def _timed_sweep(spec, out: Path, workers: int) -> tuple[float, object]:
     return time.perf_counter() - t0, frame
 
 
-def _subset(spec, n: int):
+def _subset(spec, n: int, n_batches: int = 2):
+    """The first family reduced to a random ``n`` of its tests, cut into ``n_batches`` batches
+    (at least one per worker, else a 2-worker run would have nothing to share)."""
     from dataclasses import replace
 
     fams = tuple(replace(f, subset=n) for f in spec.families)
-    return replace(spec, families=fams, name=f"{spec.name}_sub{n}")
+    return replace(spec, families=fams, name=f"{spec.name}_sub{n}",
+                   batch_size=max(1, math.ceil(n / n_batches)))
 
 
 def lm_vs_adam(X, y, seeds=(0, 1, 2, 3, 4), hidden=(5,), adam_cap_s: float = 30.0) -> dict:
@@ -103,7 +106,7 @@ def main() -> None:
         lti = load_spec(SWEEPS / "table1_lti.toml")
         stew = load_spec(SWEEPS / "paper280_stewart.toml")
         # throughput: the same LTI subset with 1 and 2 workers, side by side
-        small = _subset(lti, 32 if args.quick else 256)
+        small = _subset(lti, 32 if args.quick else 256, n_batches=4)
         t1, _ = _timed_sweep(small, tmp / "w1", 1)
         t2, _ = _timed_sweep(small, tmp / "w2", 2)
         n_small = len(small.tests())
