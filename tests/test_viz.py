@@ -449,3 +449,27 @@ def test_cli_runs_a_scene_live_for_a_browser(tmp_path):
     assert "record saved:" in rest
     rec = Record.load(out_file)
     assert rec.meta["transfer"] == "lti" and 1.0 < rec.duration <= 3.0
+
+
+def test_shared_stream_copies_new_rows_and_survives_close():
+    """The shared stream copies exactly the rows written (z^r filled in later included with
+    publish_all), a reader in the same process sees them, and publishing after close is a
+    harmless no-op (a loop may still be running when the view stops)."""
+    from rths3d.record import RecordBuffer
+    from rths3d.viz.process import SharedRecordBuffer, SharedStream
+
+    buf = RecordBuffer(["t", "z_cmd.z", "z_ref.z"], 100, {"scene": "s"})
+    buf.data[:40, 0] = np.arange(40) * DT
+    buf.data[:40, 1] = np.sin(np.arange(40))
+    buf.n = 40
+    stream = SharedStream(buf)
+    assert stream.publish() == 40
+    reader = SharedRecordBuffer(stream.spec(), other_process=False)
+    assert reader.n == 40 and reader.meta["scene"] == "s"
+    np.testing.assert_array_equal(reader.data[:40], buf.data[:40])
+    buf.data[:40, 2] = 1.0  # the loop fills z^r after the run
+    stream.publish_all()
+    np.testing.assert_array_equal(reader.data[:40, 2], 1.0)
+    stream.close()
+    buf.n = 60
+    assert stream.publish() == 40 and reader.n == 40

@@ -46,6 +46,7 @@ class SharedStream:
                                buffer=self.shm.buf, offset=8 * HEADER)
         self.header[:] = 0.0
         self.copied = 0
+        self.closed = False
 
     def spec(self) -> dict[str, Any]:
         """What the reader needs to attach (picklable)."""
@@ -54,6 +55,8 @@ class SharedStream:
 
     def publish(self) -> int:
         """Copy the rows written since the last call; returns the number of valid rows."""
+        if self.closed:
+            return self.copied
         n = self.source.n
         if n > self.copied:
             # Rows ≥ copied may have been rewritten since (the loop fills z^r at the end):
@@ -69,14 +72,18 @@ class SharedStream:
 
     def publish_all(self) -> None:
         """Copy every row (after the run: z^r and x_ref are filled in at the end)."""
+        if self.closed:
+            return
         n = self.source.n
         self.data[:n] = self.source.data[:n]
         self.copied = n
         self.header[0] = n
 
     def close(self) -> None:
-        """Release the block (the reader keeps its own mapping until it closes it)."""
-        self.shm.close()
+        """Stop publishing and remove the block's name. The mapping itself is released when
+        the last array over it is garbage-collected: unmapping it here could pull the memory
+        from under a loop thread that is still copying (a crash, not an exception)."""
+        self.closed = True
         try:
             self.shm.unlink()
         except FileNotFoundError:
@@ -84,19 +91,24 @@ class SharedStream:
 
 
 class SharedRecordBuffer(RecordBuffer):
-    """A :class:`RecordBuffer` whose rows and length live in shared memory (reader side)."""
+    """A :class:`RecordBuffer` whose rows and length live in shared memory (reader side).
 
-    def __init__(self, spec: dict[str, Any]):
+    ``other_process``: the block was created by another process (the usual case); False when
+    reader and writer share a process (tests).
+    """
+
+    def __init__(self, spec: dict[str, Any], *, other_process: bool = True):
         self.columns = tuple(spec["columns"])
         self.index = {c: i for i, c in enumerate(self.columns)}
         self.meta = dict(spec["meta"])
         self._shm = shared_memory.SharedMemory(name=spec["name"])
-        try:  # the writer owns the block: keep this process's tracker from unlinking it
-            from multiprocessing import resource_tracker
+        if other_process:  # the writer owns the block: keep our tracker from unlinking it
+            try:
+                from multiprocessing import resource_tracker
 
-            resource_tracker.unregister(self._shm._name, "shared_memory")  # noqa: SLF001
-        except Exception:  # not tracked on this platform
-            pass
+                resource_tracker.unregister(self._shm._name, "shared_memory")
+            except Exception:  # not tracked on this platform
+                pass
         cap, nc = int(spec["capacity"]), len(self.columns)
         self._header = np.ndarray((HEADER,), dtype=float, buffer=self._shm.buf)
         self.data = np.ndarray((cap, nc), dtype=float, buffer=self._shm.buf, offset=8 * HEADER)
