@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import sys
 
+import typer
+
 from . import (  # noqa: F401  (modules register their commands on import)
     benchmark,
     diagnose,
@@ -23,9 +25,20 @@ from ._app import app
 __all__ = ["app", "main"]
 
 
+@app.command()
+def version() -> None:
+    """Print the versions of rths3d and of the physics and learning libraries."""
+    from importlib.metadata import version as v
+
+    for pkg in ("rths3d", "mujoco", "numpy", "scipy", "torch", "viser"):
+        try:
+            typer.echo(f"{pkg} {v(pkg)}")
+        except Exception:
+            typer.echo(f"{pkg} not installed")
+
+
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``rths3d`` console script."""
-    import typer
     from typer._click.exceptions import ClickException  # typer vendors click
 
     from ..errors import RthsError

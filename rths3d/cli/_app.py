@@ -23,14 +23,3 @@ app = typer.Typer(
 def _root() -> None:
     """rths3d: virtual real-time hybrid substructure testing on a MuJoCo Stewart platform."""
 
-
-@app.command()
-def version() -> None:
-    """Print the versions of rths3d and of the physics and learning libraries."""
-    from importlib.metadata import version as v
-
-    for pkg in ("rths3d", "mujoco", "numpy", "scipy", "torch", "viser"):
-        try:
-            typer.echo(f"{pkg} {v(pkg)}")
-        except Exception:
-            typer.echo(f"{pkg} not installed")
