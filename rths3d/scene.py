@@ -171,8 +171,9 @@ class TransferConfig:
 
     ``kind``: ``ideal`` (z' = z), ``delay`` (z'(t) = z(t − ``delay``)), ``lti`` (continuous
     transfer function ``num``/``den`` in s, discretised exactly with a held input, after a
-    pure ``delay``; empty num/den loads ``assets/platform_heave_tf.json`` or a 50 Hz
-    second-order lag) or ``stewart`` (the MuJoCo Stewart platform). ``compensation``
+    pure ``delay``; empty num/den loads ``assets/platform_heave_tf.json`` with its identified
+    transport delay, ``delay`` then replacing the identification run's actuator delay, or a
+    50 Hz second-order lag) or ``stewart`` (the MuJoCo Stewart platform). ``compensation``
     ``velocity`` adds ``comp_time``·ż to the command; ``polynomial`` extrapolates the command
     ``comp_time`` ahead with a polynomial of ``poly_order`` through the last samples.
     ``kp``, ``kv`` (N/m, N·s/m), ``timeconst`` (s), ``velocity_ff`` and ``substeps`` tune the

@@ -7,6 +7,7 @@ from .actuators import (
     LTIActuator,
     SensorModel,
     default_transfer_function,
+    default_transport_delay,
 )
 from .systems import ActuatorTransfer, StewartTransfer, TransferSystem, build_transfer
 
@@ -20,4 +21,5 @@ __all__ = [
     "TransferSystem",
     "build_transfer",
     "default_transfer_function",
+    "default_transport_delay",
 ]

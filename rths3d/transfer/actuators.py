@@ -53,10 +53,15 @@ class DelayLine:
         return self.out
 
 
+def _tf_file() -> Path:
+    return Path(__file__).resolve().parents[2] / "assets" / "platform_heave_tf.json"
+
+
 def default_transfer_function() -> tuple[list[float], list[float], str]:
     """(num, den, source) of the actuator model: ``assets/platform_heave_tf.json`` when the
-    platform's identification wrote it, else the 30 Hz second-order fallback."""
-    path = Path(__file__).resolve().parents[2] / "assets" / "platform_heave_tf.json"
+    platform's identification wrote it, else the 50 Hz second-order fallback. The file's
+    transport delay is in :func:`default_transport_delay`."""
+    path = _tf_file()
     if path.exists():
         try:
             data = json.loads(path.read_text())
@@ -65,6 +70,33 @@ def default_transfer_function() -> tuple[list[float], list[float], str]:
             pass
     w, z = DEFAULT_TF_OMEGA, DEFAULT_TF_ZETA
     return [w * w], [1.0, 2 * z * w, w * w], "second-order 50 Hz fallback"
+
+
+def default_transport_delay(dt: float, actuator_delay: float = 0.0) -> float:
+    """Pure delay (s) the 1-D LTI path applies before the default G(s) so that it reproduces
+    the identified platform at the loop's samples.
+
+    The file's model is ``G(s)·exp(−sT)``, fitted to the *sampled* ratio z'_k/z_k of the
+    platform run with the loop's timing convention (command z_{n+1} held from t_n). The LTI
+    actuator holds the same command over [t_n, t_{n+1}] and reads z' at t_{n+1}: a
+    zero-order hold of the next sample leads the continuous G by ΔT/2. The platform's
+    measured response already contains that lead, so the LTI path adds ΔT/2 back.
+    ``T`` also contains the transport delay of the identification run's leg actuators
+    (``platform.delay`` in the file); the scene's ``transfer.delay`` (``actuator_delay``)
+    replaces it, so that ``transfer.delay`` means the actuator transport delay for both the
+    ``lti`` and the ``stewart`` transfer systems. Without the file: ``actuator_delay``.
+    """
+    path = _tf_file()
+    if path.exists():
+        try:
+            data = json.loads(path.read_text())
+            T = float(data["delay"])
+            t_act = float(data.get("platform", {}).get("delay", 0.0))
+        except (KeyError, ValueError, TypeError, AttributeError):
+            return float(actuator_delay)
+        if math.isfinite(T) and math.isfinite(t_act):
+            return max(0.0, T - t_act + 0.5 * dt + float(actuator_delay))
+    return float(actuator_delay)
 
 
 class LTIActuator:

@@ -22,7 +22,14 @@ import numpy as np
 from ..errors import SafetyStop
 from ..record import DOFS
 from ..scene import Scene
-from .actuators import Compensator, DelayLine, LTIActuator, SensorModel, default_transfer_function
+from .actuators import (
+    Compensator,
+    DelayLine,
+    LTIActuator,
+    SensorModel,
+    default_transfer_function,
+    default_transport_delay,
+)
 
 
 class TransferSystem(Protocol):
@@ -195,20 +202,29 @@ def build_transfer(scene: Scene, K: int, experiments=None, nthread: int = 0,
         act = delay_line = DelayLine(K, n_if, tr.delay, scene.dt)
         meta["delay"] = tr.delay
     else:
-        num, den = (tr.num, tr.den) if tr.num else default_transfer_function()[:2]
+        if tr.num:
+            num, den = tr.num, tr.den
+            delay = tr.delay
+        else:
+            # the platform's identified heave model with its transport delay (see
+            # default_transport_delay): the 1-D analogue of the Stewart platform
+            num, den = default_transfer_function()[:2]
+            delay = default_transport_delay(scene.dt, tr.delay)
         act = lti_act = LTIActuator(K, n_if, num, den, scene.dt)
-        if tr.delay > 0:
-            delay = delay_line = DelayLine(K, n_if, tr.delay, scene.dt)
+        if delay > 0:
+            dline = delay_line = DelayLine(K, n_if, delay, scene.dt)
             lti = act
 
-            def act(u, _d=delay, _l=lti):
+            def act(u, _d=dline, _l=lti):
                 return _l(_d(u))
 
-            act.reset = lambda _d=delay, _l=lti: (_d.reset(), _l.reset())  # type: ignore
-        meta.update(num=list(map(float, num)), den=list(map(float, den)))
+            act.reset = lambda _d=dline, _l=lti: (_d.reset(), _l.reset())  # type: ignore
+        meta.update(num=list(map(float, num)), den=list(map(float, den)), delay=delay)
         try:
+            # low-frequency delay of z' behind z: G's group delay, the pure delay, and the
+            # half-step lead of holding z_{n+1} over [t_n, t_{n+1}]
             meta["predicted_delay"] = LTIActuator(1, 1, num, den, scene.dt).delay_estimate() \
-                + tr.delay
+                + delay - 0.5 * scene.dt
         except (ValueError, ZeroDivisionError):
             meta["predicted_delay"] = math.nan
     comp = Compensator(K, n_if, tr.compensation, tr.comp_time, scene.dt, tr.poly_order)
