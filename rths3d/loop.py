@@ -188,8 +188,9 @@ def _columns(dofs: Sequence[str], n: int, stewart: bool) -> list[str]:
     cols += [f"x_num.{i}" for i in range(n)]
     if stewart:
         cols += [f"pose_cmd.{d}" for d in DOFS] + [f"pose_meas.{d}" for d in DOFS]
-    for sig in ("f_ext", "z_ref"):
-        cols += [f"{sig}.{d}" for d in dofs]
+    cols += [f"f_ext.{d}" for d in dofs]
+    cols += [f"p_num.{i}" for i in range(n)]
+    cols += [f"z_ref.{d}" for d in dofs]
     cols += [f"x_ref.{i}" for i in range(n)]
     return cols
 
@@ -232,6 +233,10 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
     data[:, :, 0] = (np.arange(N + 1) * dt)[:, None]
     # f_ext per interface DOF: Γᵀ p (the external load seen at the interface)
     data[:, :, s_fe] = np.matmul(num.p, num.gamma).transpose(1, 0, 2)
+    # p_num per numerical DOF: the external force p(t) itself (Γᵀ p loses it when Γ is not
+    # square; the energy balance needs it)
+    s_pn = slice(ci["p_num.0"], ci["p_num.0"] + num.n)
+    data[:, :, s_pn] = np.asarray(num.p).transpose(1, 0, 2)
     # safety limits per interface DOF
     saf = base.safety
     is_rot = np.array([d.startswith("r") for d in base.dofs])
