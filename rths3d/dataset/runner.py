@@ -95,10 +95,12 @@ def run_rows(spec: SweepSpec, tests: list[dict[str, Any]], records_dir: str | No
     from ..scene import load_scene
 
     np.seterr(all="ignore")  # NaN/inf of unstable tests are detected and reported, not raised
-    all_params = sorted({k for t in tests for k in t["params"]})
-    for fam in spec.families:  # every row of a family has the family's parameter columns
-        all_params = sorted(set(all_params) | set(fam.grid) | set(fam.sample) | set(fam.fixed)
-                            if any(t["family"] == fam.name for t in tests) else all_params)
+    # every row carries all parameter columns of the families in this batch (NaN where unset)
+    keys = {k for t in tests for k in t["params"]}
+    for fam in spec.families:
+        if any(t["family"] == fam.name for t in tests):
+            keys |= set(fam.grid) | set(fam.sample) | set(fam.fixed)
+    all_params = sorted(keys)
     rows: list[dict[str, Any] | None] = [None] * len(tests)
     by_family: dict[str, list[int]] = {}
     for i, t in enumerate(tests):
