@@ -102,3 +102,35 @@ def test_store_parts_atomic_and_guarded(tmp_path) -> None:
     pd.testing.assert_frame_equal(read_table(tmp_path / "s.parquet"), frame)
     with pytest.raises(ConfigError, match="another sweep"):
         SweepStore(tmp_path, "s", "zzz", 2, 4).open()
+
+
+def test_shipped_specs_parse_and_resolve_their_scenes() -> None:
+    """Every spec in scenes/sweeps parses, its scenes exist, and the paper's sizes hold."""
+    from pathlib import Path
+
+    from rths3d.scene import load_scene
+
+    folder = Path(__file__).resolve().parents[1] / "scenes" / "sweeps"
+    sizes = {}
+    for path in sorted(folder.glob("*.toml")):
+        spec = load_spec(path)
+        for fam in spec.families:
+            load_scene(spec.scene_path(fam))
+        sizes[spec.name] = len(spec.tests())
+    assert sizes["table1_lti"] == 13230
+    assert sizes["paper280_lti"] == sizes["paper280_stewart"] == 280
+    assert sizes["table2_linear"] == 108
+
+
+def test_paper280_lti_and_stewart_share_dynamics() -> None:
+    """The Stewart 280 sweep uses the same 280 Table-1 parameter points as the LTI one."""
+    from pathlib import Path
+
+    folder = Path(__file__).resolve().parents[1] / "scenes" / "sweeps"
+
+    def points(name: str) -> set:
+        tests = load_spec(folder / f"{name}.toml").tests()
+        return {tuple(sorted((k, v) for k, v in t["params"].items()
+                             if not k.startswith("transfer."))) for t in tests}
+
+    assert points("paper280_lti") == points("paper280_stewart")

@@ -91,19 +91,21 @@ class SweepSpec:
         return hashlib.sha256(json.dumps(d, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
     def scene_path(self, family: Family) -> Path:
-        """Resolve a family's scene: an existing path (relative to the spec) or a name under
-        the repository's ``scenes/``."""
+        """Resolve a family's scene: a bare name (``paper_contact``) is a scene of the
+        repository's ``scenes/``; a path (``my/scene.toml``) is relative to the spec file."""
         p = Path(family.scene)
-        cands = [p if p.is_absolute() else Path(self.base_dir) / p]
-        if p.suffix != ".toml":
-            cands.append(Path(self.base_dir) / f"{family.scene}.toml")
         scenes = Path(__file__).resolve().parents[2] / "scenes"
-        cands += [scenes / family.scene, scenes / f"{family.scene}.toml"]
+        base = Path(self.base_dir)
+        if p.suffix == ".toml" or len(p.parts) > 1:
+            cands = [p if p.is_absolute() else base / p]
+        else:
+            cands = [scenes / f"{family.scene}.toml", base / f"{family.scene}.toml"]
         for c in cands:
             if c.is_file():
                 return c
         raise ConfigError(f"family {family.name!r}.scene", family.scene,
-                          "no such scene file (looked relative to the spec and in scenes/)")
+                          "no such scene (a name in scenes/ or a .toml path relative to "
+                          "the spec)")
 
 
 def _family_dict(f: Family) -> dict[str, Any]:
