@@ -292,6 +292,16 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
     if stewart:
         h_pc = np.zeros((N + 1, K, 6))
         h_pm = np.zeros((N + 1, K, 6))
+    # divergence by growth: peak |F'_m| per window, consecutive windows growing (see
+    # SafetyLimits); gw = 0 switches it off
+    gw = int(saf.growth_windows)
+    g_win = max(1, int(round(saf.growth_window / dt)))
+    g_fac = float(saf.growth)
+    g_floor = 0.02 * lim_f
+    g_pk = np.zeros((K, nd))
+    g_prev = np.full((K, nd), np.inf)
+    g_base = np.zeros((K, nd))
+    g_cnt = np.zeros((K, nd), dtype=int)
     zlim_min = float(lim_z.min())
     vlim_min = float(lim_v.min())
     flim_min = float(lim_f.min())
@@ -350,6 +360,21 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
                         break
             if not active.any():
                 break
+        if gw:
+            np.maximum(g_pk, np.abs(f), out=g_pk)
+            if (n + 1) % g_win == 0:
+                grew = (g_pk > g_fac * g_prev) & (g_pk > g_floor)
+                g_base[grew & (g_cnt == 0)] = g_prev[grew & (g_cnt == 0)]
+                g_cnt = np.where(grew, g_cnt + 1, 0)
+                if (g_cnt >= gw).any():
+                    for k, j in zip(*np.nonzero(g_cnt >= gw), strict=True):
+                        if active[k]:
+                            halt(int(k), _growth_stop(base, int(j), g_pk[k, j] / g_base[k, j],
+                                                      (n + 1) * dt, int(k)), n + 1)
+                    if not active.any():
+                        break
+                g_prev[:] = g_pk
+                g_pk[:] = 0.0
         if every and (n % every == 0):
             if watched:
                 flush(n + 2)
@@ -373,6 +398,16 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
         pbar.close()
     return _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, active,
                    n + 1, wall, reference, stewart, specimen, nthread, progress, numerical)
+
+
+def _growth_stop(base: Scene, j: int, ratio: float, t: float, k: int) -> SafetyStop:
+    """The divergence stop of a growing interface oscillation (see SafetyLimits)."""
+    saf = base.safety
+    d = base.dofs[j]
+    what = "torque" if d.startswith("r") else "force"
+    return SafetyStop(f"divergence: growth of the peak measured {what} {d} over "
+                      f"{saf.growth_windows} windows of {saf.growth_window:g} s", ratio,
+                      saf.growth ** saf.growth_windows, t, k)
 
 
 def _check_command(num, z, zd, az, active, base, is_rot, lim_z, lim_v, lim_x, dt, n, halt):
@@ -439,6 +474,9 @@ def _run_kernel(kernel, num, transfer, base: Scene, data, buffers, control, ever
             row = n_done
         elif code == "v":
             stop = SafetyStop(f"velocity: commanded {d} rate", val, saf.velocity, t, 0, "m/s")
+            row = n_done
+        elif code == "g":
+            stop = _growth_stop(base, j, val, n_done * dt, 0)
             row = n_done
         elif code == "f":
             what = "torque" if rot else "force"
@@ -621,6 +659,10 @@ def _fast_kernel(num, transfer, base: Scene, ci: dict[str, int]):
         a("    sim_step = sim.step")
         a("    Sim = type(sim)")
         a("    pose_get = Sim.pose.fget; wrench_get = Sim.interface_wrench.fget")
+    gw = int(saf.growth_windows)
+    if gw:
+        a("    " + "; ".join(f"gp{j} = 0.0; gv{j} = 1e308; gb{j} = 0.0; gc{j} = 0"
+                          for j in range(nd)))
     a("    for n in range(N):")
     a("        p = P[n]")
     for i in range(S):
@@ -716,6 +758,21 @@ def _fast_kernel(num, transfer, base: Scene, ci: dict[str, int]):
     for j in range(nd):
         lf = saf.torque if is_rot[j] else saf.force
         a(f"        if not (-{_f(lf)} <= f{j} <= {_f(lf)}): return n + 1, 'f', {j}, f{j}")
+    if gw:
+        # divergence by growth of the windowed peak |F'_m| (same rule as the batched path)
+        for j in range(nd):
+            a(f"        a{j} = abs(f{j})")
+            a(f"        if a{j} > gp{j}: gp{j} = a{j}")
+        a(f"        if (n + 1) % {max(1, int(round(saf.growth_window / base.dt)))} == 0:")
+        for j in range(nd):
+            floor = 0.02 * (saf.torque if is_rot[j] else saf.force)
+            a(f"            if gp{j} > {_f(saf.growth)} * gv{j} and gp{j} > {_f(floor)}:")
+            a(f"                if gc{j} == 0: gb{j} = gv{j}")
+            a(f"                gc{j} += 1")
+            a(f"                if gc{j} >= {gw}: return n + 1, 'g', {j}, gp{j} / gb{j}")
+            a("            else:")
+            a(f"                gc{j} = 0")
+            a(f"            gv{j} = gp{j}; gp{j} = 0.0")
     a("        if every and n % every == 0:")
     a("            for b in buffers: b.n = n + 2")
     a("            if ctl(n): return n + 1, 'user', 0, 0.0")

@@ -218,7 +218,11 @@ class SafetyLimits:
 
     ``stroke`` (m) and ``rotation`` (rad) bound |z|; ``velocity`` (m/s) bounds |ż| of the
     command; ``force`` (N) and ``torque`` (N·m) bound |F'_m| (the FTS range);
-    ``divergence`` (m) bounds any numerical displacement.
+    ``divergence`` (m) bounds any numerical displacement. A growing interface oscillation
+    (a delay-induced RTHS instability) also counts as divergence: the peak |F'_m| of each DOF
+    over windows of ``growth_window`` (s) grew by more than ``growth`` (factor per window) in
+    ``growth_windows`` consecutive windows, each peak above 2 % of the FTS range
+    (``growth_windows = 0`` switches this off).
     """
 
     stroke: float = 0.04
@@ -227,6 +231,9 @@ class SafetyLimits:
     force: float = 1000.0
     torque: float = 100.0
     divergence: float = 1.0
+    growth: float = 1.25
+    growth_window: float = 0.5
+    growth_windows: int = 4
 
 
 SafetyConfig = SafetyLimits
@@ -444,8 +451,11 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
         raise ConfigError("sensor.time_constant", sen.time_constant, "must be > 0 s for "
                           "a first-order sensor")
     saf = _build(SafetyLimits, "safety", _section(raw, "safety", SafetyLimits),
-                 {k: pos for k in ("stroke", "rotation", "velocity", "force", "torque",
-                                   "divergence")})
+                 {**{k: pos for k in ("stroke", "rotation", "velocity", "force", "torque",
+                                      "divergence", "growth_window")},
+                  "growth": {"lo": 1.0, "lo_open": True}})
+    if saf.growth_windows < 0:
+        raise ConfigError("safety.growth_windows", saf.growth_windows, "must be >= 0 (0: off)")
     _check_reach(saf, exc, exp)
     sname = raw.get("name", name)
     if not isinstance(sname, str):

@@ -79,3 +79,11 @@ def test_cli_bad_scene_one_line_exit_2(args, word):
     err = p.stderr.strip().splitlines()
     assert len(err) == 1 and word in err[0]
     assert "Traceback" not in p.stderr + p.stdout
+
+
+def test_growth_limits_validated():
+    """safety.growth ≤ 1 and a negative safety.growth_windows are refused, naming the field."""
+    with pytest.raises(ConfigError, match=r"safety\.growth: 1(\.0)? \(must be > 1\)"):
+        load_scene(SCENES / "multidof.toml", ["safety.growth=1.0"])
+    with pytest.raises(ConfigError, match=r"safety\.growth_windows"):
+        load_scene(SCENES / "multidof.toml", ["safety.growth_windows=-1"])
