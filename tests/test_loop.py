@@ -272,3 +272,47 @@ def test_growth_stop_same_in_kernel_and_batch():
     assert one.status == "stopped" and "divergence: growth" in one.reason, one.reason
     assert two[0].reason == one.reason and two[0].record.n == one.record.n
     assert two[1].status == "ok", two[1].reason
+
+
+@pytest.fixture(scope="module")
+def linear_both_integrators():
+    """paper_linear (damped part, LTI transfer), 4 s, with each integrator."""
+    from rths3d.loop import scene_with
+
+    sc = load_scene(SCENES / "paper_linear.toml", ["duration=4.0"])
+    return {m: run(scene_with(sc, {"numerical.integrator": m}), "lti", reference=False)
+            for m in ("exact", "central_difference")}
+
+
+@pytest.mark.parametrize("method", ["exact", "central_difference"])
+def test_recorded_force_aligned_with_commands(linear_both_integrators, method):
+    """Replaying the recorded z_cmd through a fresh transfer system reproduces z_meas and
+    f_meas on the same rows: F'_m(t_n) sits beside z(t_n), z'(t_n) for both integrators."""
+    from rths3d.transfer import build_transfer
+
+    res = linear_both_integrators[method]
+    rec = res.record
+    tr = build_transfer(load_scene(SCENES / "paper_linear.toml", ["duration=4.0"]), 1)
+    tr.reset()
+    zc = rec.columns["z_cmd.z"]
+    zm, fm = np.zeros_like(zc), np.zeros_like(zc)
+    for n in range(1, rec.n):
+        tr.step(np.array([[zc[n]]]), np.zeros((1, 1)))
+        zm[n], fm[n] = tr.z_meas[0, 0], tr.f_meas[0, 0]
+    np.testing.assert_allclose(zm, rec.columns["z_meas.z"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fm, rec.columns["f_meas.z"], rtol=0,
+                               atol=1e-9 * np.abs(fm).max())
+
+
+def test_integrators_give_same_hsem_s(linear_both_integrators):
+    """Exact and central-difference integration give the same HSEM^S (within 1 %) and
+    e_rel,track on a stable test: they differ only by the integrators' O((ωΔT)²) dispersion
+    (≈ 7e-4 at the part's 21 Hz mode, ΔT = 1 ms), far below 1 %. (An undamped, slowly
+    diverging part made them differ by ×6: the growth rate, not a misaligned force.)"""
+    from rths3d.metrics import compute_measures
+
+    m = {k: compute_measures(r.record) for k, r in linear_both_integrators.items()}
+    a, b = m["exact"], m["central_difference"]
+    assert a["hsem_s"] > 0 and b["hsem_s"] > 0
+    assert b["hsem_s"] == pytest.approx(a["hsem_s"], rel=0.01)
+    assert b["e_rel_track"] == pytest.approx(a["e_rel_track"], rel=0.01)
