@@ -12,10 +12,9 @@ Run ``python benchmarks/sweep.py [--quick]``; prints ONE JSON line:
     wall time of the full Table-1 grid (13230 tests) with the 1-D LTI transfer (floor < 300 s).
     With ``--quick`` a subset is timed and scaled.
 ``lm_over_adam_time``
-    median over seeds of (LM time to its best validation MSE) / (Adam time to the same MSE),
-    on the 280-test contact data with feature set 2 (``--quick``: 120 of them; < 1: LM is
-    faster). Adam runs that never
-    reach the MSE within the time cap count at the cap (so the ratio is an upper bound).
+    (LM wall time to a validation MSE) / (Adam wall time to the same MSE), the MSE being the
+    median of LM's best over 5 seeds, restarts charged (see :func:`lm_vs_adam`); on the
+    280-test contact data with feature set 2 (``--quick``: 120 of them). < 1: LM is faster.
 """
 
 from __future__ import annotations
@@ -55,7 +54,13 @@ def _subset(spec, n: int, n_batches: int = 2):
 
 
 def lm_vs_adam(X, y, seeds=(0, 1, 2, 3, 4), hidden=(5,), adam_cap_s: float = 30.0) -> dict:
-    """Time for LM to reach its best validation MSE vs Adam's time to reach the same MSE."""
+    """Wall time for LM and for Adam to reach the same validation MSE, as a practitioner would.
+
+    The target is the median over seeds of LM's best validation MSE. Each method trains from
+    seed after seed (restarting when a run stops without reaching the target) and is charged
+    the time until the target is first reached; one figure per starting seed, medians reported.
+    Adam runs are capped at ``adam_cap_s`` each (a capped total is a lower bound for Adam).
+    """
     from rths3d.ann import (
         AdamConfig,
         MinMax,
@@ -71,27 +76,41 @@ def lm_vs_adam(X, y, seeds=(0, 1, 2, 3, 4), hidden=(5,), adam_cap_s: float = 30.
     tn = MinMax.fit(y[:, None]).transform(y[:, None])[:, 0]
     s = split_indices(len(y), seed=0)
     topo = Topology(x.shape[1], tuple(hidden))
-    ratios, reached, lm_t, adam_t = [], 0, [], []
-    for seed in seeds:
-        args = (topo, xn[s["train"]], tn[s["train"]], xn[s["val"]], tn[s["val"]])
-        lm = train_lm(*args, seed=seed)
-        target = lm.val_mse
-        t_lm = time_to_val_mse(lm, target)
-        ad = train_adam(*args, seed=seed, config=AdamConfig(target_val_mse=target,
-                                                            time_limit=adam_cap_s,
-                                                            max_fail=10**9, epochs=10**9))
-        t_ad = time_to_val_mse(ad, target)
-        if math.isfinite(t_ad):
-            reached += 1
-        else:
-            t_ad = ad.seconds
-        lm_t.append(t_lm)
-        adam_t.append(t_ad)
-        ratios.append(t_lm / max(t_ad, 1e-9))
+    args = (topo, xn[s["train"]], tn[s["train"]], xn[s["val"]], tn[s["val"]])
+    lm_runs = {seed: train_lm(*args, seed=seed) for seed in seeds}
+    target = statistics.median(r.val_mse for r in lm_runs.values())
+
+    def charged(runs: dict) -> list[float]:
+        out = []
+        order = list(seeds)
+        for i in range(len(order)):
+            total = 0.0
+            for seed in order[i:] + order[:i]:
+                t = time_to_val_mse(runs[seed], target)
+                if math.isfinite(t):
+                    total += t
+                    break
+                total += runs[seed].seconds
+            else:
+                total = math.inf
+            out.append(total)
+        return out
+
+    adam_runs = {seed: train_adam(*args, seed=seed,
+                                  config=AdamConfig(target_val_mse=target, time_limit=adam_cap_s,
+                                                    max_fail=10**9, epochs=10**9))
+                 for seed in seeds}
+    t_lm = charged(lm_runs)
+    t_ad = charged(adam_runs)
+    reached = sum(math.isfinite(time_to_val_mse(r, target)) for r in adam_runs.values())
+    t_ad = [t if math.isfinite(t) else sum(r.seconds for r in adam_runs.values())
+            for t in t_ad]
+    ratios = [a / max(b, 1e-9) for a, b in zip(t_lm, t_ad, strict=True)]
     return {"lm_over_adam_time": statistics.median(ratios),
-            "lm_time_to_mse_s": statistics.median(lm_t),
-            "adam_time_to_mse_s": statistics.median(adam_t),
-            "adam_reached_fraction": reached / len(seeds)}
+            "lm_time_to_mse_s": statistics.median(t_lm),
+            "adam_time_to_mse_s": statistics.median(t_ad),
+            "adam_runs_reaching_target": reached / len(seeds),
+            "target_val_mse_normalised": target}
 
 
 def main() -> None:
@@ -140,7 +159,7 @@ def main() -> None:
             paper = _subset(paper, 120)
         _, frame = _timed_sweep(paper, tmp / "paper", 2)
         X, y, _ = training_data(frame, 2)
-        res.update(lm_vs_adam(X, y, seeds=(0, 1, 2) if args.quick else (0, 1, 2, 3, 4),
+        res.update(lm_vs_adam(X, y, seeds=(0, 1, 2, 3, 4),
                               adam_cap_s=10.0 if args.quick else 30.0))
         res["lm_vs_adam_samples"] = int(len(y))
     finally:
