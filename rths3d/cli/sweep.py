@@ -18,16 +18,22 @@ def sweep(
     scheduler: str = typer.Option(None, "--scheduler", help="Dask scheduler address "
                                   "(tcp://host:port): run the batches on that cluster."),
     quiet: bool = typer.Option(False, "--quiet", help="No progress bar."),
+    keep_records: bool = typer.Option(False, "--keep-records",
+                                      help="Also save every test's record under OUT/records."),
 ) -> None:
     """Run every test of SPEC not yet finished in OUT and write OUT/<name>.parquet.
 
     Resumable: finished batches are kept; re-running skips them. Unstable tests are
     recorded with their reason.
     """
+    from dataclasses import replace
+
     from ..dataset import load_spec, run_sweep
     from ..dataset.execute import table_path
 
     s = load_spec(spec)
+    if keep_records:
+        s = replace(s, keep_records=True)
     frame = run_sweep(s, out, workers=workers, scheduler=scheduler, progress=not quiet)
     if frame is None:
         typer.echo("sweep incomplete (see parts in the output folder)")
