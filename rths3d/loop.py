@@ -162,20 +162,31 @@ def _versions() -> dict[str, str]:
 def _meta(scene: Scene, num, k: int, transfer_meta: dict) -> dict[str, Any]:
     from .experiment.mjcf import interface_matrices
     from .numerical import coupled_fastest_eigenfrequency, fastest_eigenfrequency
+    from .numerical.modal import interface_delay_margin
 
     e = scene.experiment
     k_exp, m_exp = interface_matrices(e, scene.dofs)
+    c_exp = [[e.d, 0.0], [0.0, e.d_rot]] if len(k_exp) == 2 else [[e.d]]
     M, K = num.M[k], num.Kmat[k]
+    # delay margin of the delayed interface loop with the part as it is built (a mass behind
+    # its spring, contact open); recorded only when a delay can destabilise the test
+    margin = {}
+    try:
+        tau_cr, wc, pm = interface_delay_margin(M, num.C[k], K, num.gamma, m_exp, c_exp, k_exp)
+    except (ValueError, np.linalg.LinAlgError):
+        tau_cr = math.inf
+    if math.isfinite(tau_cr):
+        margin = {"phase_margin": pm, "crossover": wc, "delay_margin": tau_cr}
     return {
         "scene": scene.name, "params": scene.params(), "transfer": scene.transfer.kind,
         "dt": scene.dt, "dofs": list(scene.dofs), "versions": dict(_versions()),
         "numerical": num.meta(k),
         "experiment": {"kind": e.kind, "m_exp": e.m, "k_exp": k_exp, "m_exp_matrix": m_exp,
-                       "d_exp": e.d, "h0": e.h0 if e.kind != "linear" else None,
+                       "d_exp": e.d, "c_exp": c_exp, "h0": e.h0 if e.kind != "linear" else None,
                        "k_contact": e.k_contact, "d_contact": e.d_contact},
         "omega_num_max": fastest_eigenfrequency(M, K),
         "omega_dyn_max": coupled_fastest_eigenfrequency(M, K, num.gamma, m_exp, k_exp),
-        "transfer_meta": transfer_meta,
+        "transfer_meta": transfer_meta, **margin,
         "status": "ok", "reason": "",
     }
 

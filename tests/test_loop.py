@@ -316,3 +316,27 @@ def test_integrators_give_same_hsem_s(linear_both_integrators):
     assert a["hsem_s"] > 0 and b["hsem_s"] > 0
     assert b["hsem_s"] == pytest.approx(a["hsem_s"], rel=0.01)
     assert b["e_rel_track"] == pytest.approx(a["e_rel_track"], rel=0.01)
+
+
+def test_recorded_delay_margin_predicts_loop_stability():
+    """meta phase_margin/crossover (τ_cr = PM/ω_c of the part behind its spring) predict the
+    loop: a pure delay 0.8 ms short of τ_cr (counting the held force's ΔT/2) lets the 21 Hz
+    interface oscillation decay, 0.8 ms beyond it makes it grow; the metrics' τ_max uses it."""
+    from rths3d.metrics import compute_measures
+
+    base = load_scene(SCENES / "paper_linear.toml",
+                      ["experiment.d=1.0", "safety.growth_windows=0"])
+    meta = run(base, "ideal", reference=False).record.meta
+    tau_cr = meta["phase_margin"] / meta["crossover"]
+    assert tau_cr == pytest.approx(meta["delay_margin"])
+    assert meta["crossover"] == pytest.approx(np.sqrt(8650 / 0.5), rel=0.05)  # the part's mode
+    peaks = {}
+    for sign in (-1, 1):
+        tau = tau_cr - base.dt / 2 + sign * 0.8e-3
+        rec = run(load_scene(SCENES / "paper_linear.toml",
+                             ["experiment.d=1.0", "safety.growth_windows=0",
+                              f"transfer.delay={tau}"]), "delay", reference=False).record
+        f = np.abs(rec.columns["f_meas.z"])
+        peaks[sign] = f[8000:].max() / f[2000:3000].max()
+        assert compute_measures(rec)["tau_max"] == pytest.approx(tau_cr, rel=1e-9)
+    assert peaks[-1] < 0.9 and peaks[1] > 1.5, peaks
