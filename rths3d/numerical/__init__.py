@@ -13,7 +13,12 @@ from .linear import (
     NumericalSubstructure,
     discretise,
 )
-from .modal import coupled_fastest_eigenfrequency, fastest_eigenfrequency
+from .modal import (
+    coupled_fastest_eigenfrequency,
+    fastest_eigenfrequency,
+    interface_delay_margin,
+    part_impedance,
+)
 from .nonlinear import CubicSpringSubstructure
 
 __all__ = [
@@ -25,5 +30,7 @@ __all__ = [
     "discretise",
     "excitation_signal",
     "fastest_eigenfrequency",
+    "interface_delay_margin",
     "load_history",
+    "part_impedance",
 ]
