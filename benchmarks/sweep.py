@@ -7,10 +7,12 @@ Run ``python benchmarks/sweep.py [--quick]``; prints ONE JSON line:
     (efficiency = rate₂ / (2 rate₁)).
 ``paper280_stewart_s``
     wall time of the paper's 280-test contact sweep on the MuJoCo Stewart platform (2 workers;
-    floor < 120 s). With ``--quick`` a subset is timed and scaled to 280 tests.
+    floor < 120 s). With ``--quick`` 20 tests (one transfer setting, 2 batches) are timed and
+    scaled to 280 tests.
 ``table1_grid_lti_s``
     wall time of the full Table-1 grid (13230 tests) with the 1-D LTI transfer (floor < 300 s).
-    With ``--quick`` a subset is timed and scaled.
+    With ``--quick`` 512 tests in 2 batches of 256 (the full sweep's batch size) are timed and
+    scaled.
 ``lm_over_adam_time``
     (LM wall time to a validation MSE) / (Adam wall time to the same MSE), the MSE being the
     median of LM's best over 5 seeds, restarts charged (see :func:`lm_vs_adam`); on the
@@ -44,12 +46,22 @@ def _timed_sweep(spec, out: Path, workers: int) -> tuple[float, object]:
 
 
 def _subset(spec, n: int, n_batches: int = 2):
-    """The first family reduced to a random ``n`` of its tests, cut into ``n_batches`` batches
-    (at least one per worker, else a 2-worker run would have nothing to share)."""
+    """A random ``n`` of the spec's tests that all share one transfer setting (the first
+    value of every random choice), cut into ``n_batches`` batches.
+
+    One shared setting lets the loop step a whole batch together, as it does in the full
+    sweeps (whose tests are ordered by transfer setting, so batches are homogeneous); at least
+    one batch per worker, else a 2-worker run would have nothing to share.
+    """
     from dataclasses import replace
 
-    fams = tuple(replace(f, subset=n) for f in spec.families)
-    return replace(spec, families=fams, name=f"{spec.name}_sub{n}",
+    fams = []
+    for f in spec.families:
+        sample = {k: v for k, v in f.sample.items() if v[0] != "choice"}
+        fixed = dict(f.fixed) | {k: v[1][0] for k, v in f.sample.items() if v[0] == "choice"}
+        fams.append(replace(f, subset=n, sample=sample, fixed=fixed,
+                            n_sample=f.n_sample if sample else 0))
+    return replace(spec, families=tuple(fams), name=f"{spec.name}_sub{n}",
                    batch_size=max(1, math.ceil(n / n_batches)))
 
 
@@ -125,7 +137,7 @@ def main() -> None:
         lti = load_spec(SWEEPS / "table1_lti.toml")
         stew = load_spec(SWEEPS / "paper280_stewart.toml")
         # throughput: the same LTI subset with 1 and 2 workers, side by side
-        small = _subset(lti, 32 if args.quick else 256, n_batches=4)
+        small = _subset(lti, 64 if args.quick else 256, n_batches=4)
         t1, _ = _timed_sweep(small, tmp / "w1", 1)
         t2, _ = _timed_sweep(small, tmp / "w2", 2)
         n_small = len(small.tests())
@@ -145,7 +157,7 @@ def main() -> None:
         # the full Table-1 grid with the LTI transfer
         n_grid = len(lti.tests())
         if args.quick:
-            sub = _subset(lti, 200)
+            sub = _subset(lti, 512)
             tg, _ = _timed_sweep(sub, tmp / "grid", 2)
             res["table1_grid_lti_s"] = tg * n_grid / len(sub.tests())
             res["table1_grid_lti_scaled_from"] = len(sub.tests())
