@@ -35,6 +35,7 @@ _LAZY: dict[str, str] = {
     "LoopControl": "rths3d.loop",
     "reference_solution": "rths3d.reference",
     "LinearSubstructure": "rths3d.numerical",
+    "interface_delay_margin": "rths3d.numerical",
     "build_transfer": "rths3d.transfer",
     # platform
     "StewartGeometry": "rths3d.platform",

@@ -26,13 +26,16 @@ import threading
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .errors import ConfigError, SafetyStop
 from .record import DOFS, Record, RecordBuffer
 from .scene import Scene, apply_overrides, scene_from_dict
+
+if TYPE_CHECKING:
+    from .numerical import NumericalFactory
 
 __all__ = ["LoopControl", "RunResult", "build_numerical", "run", "run_batch", "scene_to_dict",
            "scene_with"]
@@ -548,7 +551,7 @@ def _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, a
 def run(scene: Scene, transfer: str | None = None, *, reference: bool = True,
         control: LoopControl | None = None, buffers: list | None = None,
         progress: bool = False, specimen: str = "auto", out: str | None = None,
-        numerical=None) -> RunResult:
+        numerical: NumericalFactory | None = None) -> RunResult:
     """Run one test of ``scene`` (optionally with another ``transfer`` kind).
 
     ``buffers``: a list that receives the test's :class:`RecordBuffer` as soon as the loop

@@ -20,9 +20,14 @@ force) at least at first order — both measured in tests/test_reference.py.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .scene import Scene
+
+if TYPE_CHECKING:
+    from .numerical import NumericalFactory
 
 REFERENCE_SUBSTEPS = 2
 """RK4 substeps per interface step of the numpy specimen in the reference."""
@@ -30,7 +35,7 @@ REFERENCE_SUBSTEPS = 2
 
 def reference_solution(scenes: list[Scene], *, tol: float = 1e-11, max_iter: int = 30,
                        nthread: int = 0, progress: bool = False, specimen: str = "auto",
-                       numerical=None) -> dict[str, np.ndarray]:
+                       numerical: NumericalFactory | None = None) -> dict[str, np.ndarray]:
     """z^r for K tests that share dt, duration, DOFs and experiment kind.
 
     Returns arrays ``z_ref`` (K, N+1, n_if) in m/rad, ``f_ref`` (K, N+1, n_if) in N/N·m,

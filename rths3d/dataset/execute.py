@@ -14,11 +14,14 @@ import os
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import ConfigError
 from .spec import SweepSpec
 from .store import SweepStore
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 RowsFn = Callable[[SweepSpec, list[dict[str, Any]], str | None], list[dict[str, Any]]]
 
@@ -32,7 +35,8 @@ def batches_of(spec: SweepSpec) -> list[tuple[str, list[dict[str, Any]]]]:
 
 def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = None,
               scheduler: str | None = None, progress: bool = True,
-              max_batches: int | None = None, rows_fn: RowsFn | None = None):
+              max_batches: int | None = None, rows_fn: RowsFn | None = None
+              ) -> pd.DataFrame | None:
     """Run every unfinished batch of ``spec`` and merge the table; returns the DataFrame.
 
     ``workers``: local processes (default: all cores; 1 runs in this process).

@@ -10,6 +10,7 @@ from .excitation import excitation_signal, load_history
 from .linear import (
     Discretisation,
     LinearSubstructure,
+    NumericalFactory,
     NumericalSubstructure,
     discretise,
 )
@@ -25,6 +26,7 @@ __all__ = [
     "CubicSpringSubstructure",
     "Discretisation",
     "LinearSubstructure",
+    "NumericalFactory",
     "NumericalSubstructure",
     "coupled_fastest_eigenfrequency",
     "discretise",

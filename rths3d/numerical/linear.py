@@ -14,14 +14,18 @@ interpolated in the reference. Unconditionally stable, no numerical damping.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 import scipy.linalg
 
 from ..errors import ConfigError
 from .modal import fastest_eigenfrequency
+
+if TYPE_CHECKING:
+    from ..scene import Scene
 
 
 @dataclass(frozen=True)
@@ -125,6 +129,10 @@ class NumericalSubstructure(Protocol):
     def get_state(self) -> np.ndarray: ...
 
     def set_state(self, state: np.ndarray) -> None: ...
+
+
+NumericalFactory = Callable[[list["Scene"]], NumericalSubstructure]
+"""Builds the numerical substructure of K tests from their scenes (``run(numerical=...)``)."""
 
 
 class LinearSubstructure:

@@ -15,13 +15,14 @@ per DOF) → specimen (numpy ``Specimen1D`` or ``MujocoSpecimen``) → sensor mo
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Protocol
 
 import numpy as np
 
 from ..errors import SafetyStop
 from ..record import DOFS
-from ..scene import Scene
+from ..scene import ExperimentConfig, Scene
 from .actuators import (
     Compensator,
     DelayLine,
@@ -166,8 +167,8 @@ class StewartTransfer:
         self.f_meas[:] = self.sensor(f)
 
 
-def build_transfer(scene: Scene, K: int, experiments=None, nthread: int = 0,
-                   specimen: str = "auto"):
+def build_transfer(scene: Scene, K: int, experiments: Sequence[ExperimentConfig] | None = None,
+                   nthread: int = 0, specimen: str = "auto") -> TransferSystem:
     """The transfer system of ``scene`` for K tests.
 
     ``experiments``: per-test :class:`~rths3d.scene.ExperimentConfig` (default: the scene's).

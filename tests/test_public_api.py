@@ -1,0 +1,60 @@
+"""The public API: every exported name resolves, is documented and is typed."""
+
+from __future__ import annotations
+
+import inspect
+import subprocess
+import sys
+
+import pytest
+
+import rths3d
+
+PUBLIC = [n for n in rths3d.__all__ if not n.startswith("_")]
+
+
+@pytest.mark.parametrize("name", PUBLIC)
+def test_export_resolves_and_has_a_docstring(name):
+    """Each public name imports and carries a docstring of its own."""
+    obj = getattr(rths3d, name)
+    if inspect.isclass(obj) or inspect.isfunction(obj):
+        doc = inspect.getdoc(obj)
+        assert doc and len(doc) > 20, f"{name} needs a docstring"
+
+
+@pytest.mark.parametrize("name", [n for n in PUBLIC
+                                  if inspect.isfunction(getattr(rths3d, n))])
+def test_public_functions_are_type_hinted(name):
+    """Public functions annotate every named parameter and their return value."""
+    sig = inspect.signature(getattr(rths3d, name))
+    for p in sig.parameters.values():
+        if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+            continue
+        assert p.annotation is not inspect.Parameter.empty, f"{name}({p.name}) has no hint"
+    assert sig.return_annotation is not inspect.Signature.empty, f"{name} has no return hint"
+
+
+def test_core_import_is_light():
+    """Importing rths3d loads neither the viewer, the CLI, torch nor MuJoCo."""
+    code = ("import sys, rths3d; bad = [m for m in ('rths3d.viz', 'rths3d.cli', 'torch', "
+            "'mujoco', 'viser') if m in sys.modules]; print(','.join(bad))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == ""
+
+
+def test_core_never_imports_viewer_or_cli():
+    """No core module imports rths3d.viz or rths3d.cli (the viewer sits beside the core)."""
+    import re
+    from pathlib import Path
+
+    root = Path(rths3d.__file__).parent
+    pattern = re.compile(r"^\s*(from|import)\s+(rths3d\.(viz|cli)|\.+(viz|cli))\b", re.M)
+    offenders = []
+    for path in root.rglob("*.py"):
+        rel = path.relative_to(root).parts
+        if rel[0] in ("viz", "cli", "__main__.py"):
+            continue
+        if pattern.search(path.read_text()):
+            offenders.append(str(path.relative_to(root)))
+    assert offenders == []
