@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg
+from numpy.typing import ArrayLike
 
 
 def fastest_eigenfrequency(M: np.ndarray, K: np.ndarray) -> float:
@@ -33,7 +34,8 @@ def coupled_fastest_eigenfrequency(M: np.ndarray, K: np.ndarray, gamma: np.ndarr
     return fastest_eigenfrequency(Mc, Kc)
 
 
-def part_impedance(w: np.ndarray, m_exp, c_exp, k_exp) -> np.ndarray:
+def part_impedance(w: np.ndarray, m_exp: ArrayLike, c_exp: ArrayLike, k_exp: ArrayLike
+                   ) -> np.ndarray:
     """Interface impedance Z(iω) = F/z' (N/m, N·m/rad) of parts that sit *behind* their
     springs on the mount (this package's experimental parts, contact open): per interface DOF
     Z = (c s + k)·m s² / (m s² + c s + k), s = iω. Shape (len(w), n_if, n_if), diagonal."""
@@ -48,8 +50,9 @@ def part_impedance(w: np.ndarray, m_exp, c_exp, k_exp) -> np.ndarray:
     return out
 
 
-def interface_delay_margin(M, C, K, gamma, m_exp, c_exp, k_exp, *, n_grid: int = 1500
-                           ) -> tuple[float, float, float]:
+def interface_delay_margin(M: np.ndarray, C: np.ndarray, K: np.ndarray, gamma: np.ndarray,
+                           m_exp: ArrayLike, c_exp: ArrayLike, k_exp: ArrayLike, *,
+                           n_grid: int = 1500) -> tuple[float, float, float]:
     """(τ_cr s, ω_c rad/s, PM rad): the smallest interface delay that destabilises the
     coupled linear test, the crossover that sets it and its phase margin.
 
