@@ -194,7 +194,7 @@ def test_kobe_cases_2_and_3_stop_at_force_limit(rths_benchmark_dir):
         assert run_case(BenchmarkConfig(case=c, excitation="Kobe"), gm=kobe).status == "ok"
 
 
-def test_unstable_controller_is_stopped():
+def test_unstable_controller_is_stopped(rths_benchmark_dir):
     """A PI gain of 40 makes the loop unstable (spectral radius > 1); the run stops at the limit."""
     cfg = BenchmarkConfig(case=1, controller=ControllerParams(kp=40.0), t_end=3.0)
     assert spectral_radius(cfg) > 1.0
@@ -287,7 +287,7 @@ def test_record_hold_and_ideal_derivative_sensitivities(nominal, elcentro):
         assert 0.04 <= nominal[c].table_row()["J4"] - row["J4"] <= 0.13
 
 
-def test_scene_file_and_overrides(tmp_path):
+def test_scene_file_and_overrides(tmp_path, rths_benchmark_dir):
     """A benchmark scene TOML sets plant, controller and I/O; overrides apply; bad keys name the field."""
     from rths3d.rthsbench.scene import load_benchmark_scene
 
@@ -317,7 +317,7 @@ def test_faster_tracking_controller_lowers_delay(elcentro):
     assert b["J1"] < a["J1"] and b["J2"] < a["J2"]
 
 
-def test_cli_json_and_errors(capsys, tmp_path):
+def test_cli_json_and_errors(capsys, tmp_path, rths_benchmark_dir):
     """`rths3d benchmark rths --case 1 --json --plot` prints Table-3 units and writes the figure;
     a bad case exits 2 with one line."""
     from rths3d.cli import main
