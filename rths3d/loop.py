@@ -25,7 +25,7 @@ import math
 import threading
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -210,7 +210,7 @@ def _columns(dofs: Sequence[str], n: int, stewart: bool) -> list[str]:
 
 
 # ---------------------------------------------------------------------------- the loop
-def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
+def _run_group(scenes: list[Scene], *, reference: bool | str, nthread: int,
                control: LoopControl | None, buffers_out: list | None,
                progress: bool, specimen: str, numerical=None) -> list[RunResult]:
     from .transfer import build_transfer
@@ -222,14 +222,15 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
     nd = len(base.dofs)
     num = numerical(scenes) if numerical is not None else build_numerical(scenes)
     transfer = build_transfer(base, K, [s.experiment for s in scenes], nthread=nthread,
-                              specimen=specimen)
+                              specimen=specimen, scenes=scenes)
     stewart = base.transfer.kind == "stewart"
     cols = _columns(base.dofs, num.n, stewart)
     ci = {c: i for i, c in enumerate(cols)}
     data = np.zeros((N + 1, K, len(cols)))
     buffers = []
     for k in range(K):
-        b = RecordBuffer(cols, 1, _meta(scenes[k], num, k, getattr(transfer, "meta", {})))
+        tmeta = transfer.metas[k] if hasattr(transfer, "metas") else getattr(transfer, "meta", {})
+        b = RecordBuffer(cols, 1, _meta(scenes[k], num, k, tmeta))
         b.data = data[:, k, :]
         b.n = 1
         buffers.append(b)
@@ -304,8 +305,13 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
     h_f = np.zeros((N + 1, K, nd))
     h_x = np.zeros((N + 1, K, num.n))
     if stewart:
+        from .platform.sim import plate_pose
+
         h_pc = np.zeros((N + 1, K, 6))
-        h_pm = np.zeros((N + 1, K, 6))
+        # raw plate qpos per step (a copy of 7 floats per test), converted to poses at flush
+        h_pq = np.zeros((N + 1, K, 7))
+        h_pq[:, :, 2] = transfer.home_height
+        h_pq[:, :, 3] = 1.0
     # divergence by growth: peak |F'_m| per window, consecutive windows growing (see
     # SafetyLimits); gw = 0 switches it off
     gw = int(saf.growth_windows)
@@ -321,14 +327,18 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
     flim_min = float(lim_f.min())
     watched = control is not None
 
+    flushed = [0]
+
     def flush(upto: int) -> None:
-        data[:upto, :, s_zc] = h_zc[:upto]
-        data[:upto, :, s_zm] = h_zm[:upto]
-        data[:upto, :, s_fm] = h_f[:upto]
-        data[:upto, :, s_x] = h_x[:upto]
+        a = flushed[0]
+        data[a:upto, :, s_zc] = h_zc[a:upto]
+        data[a:upto, :, s_zm] = h_zm[a:upto]
+        data[a:upto, :, s_fm] = h_f[a:upto]
+        data[a:upto, :, s_x] = h_x[a:upto]
         if stewart:
-            data[:upto, :, s_pc] = h_pc[:upto]
-            data[:upto, :, s_pm] = h_pm[:upto]
+            data[a:upto, :, s_pc] = h_pc[a:upto]
+            data[a:upto, :, s_pm] = plate_pose(h_pq[a:upto], transfer.home_height)
+        flushed[0] = upto
 
     for n in range(N):
         num.step(n, f)
@@ -362,7 +372,7 @@ def _run_group(scenes: list[Scene], *, reference: bool, nthread: int,
         h_x[n + 1] = num.x
         if stewart:
             h_pc[n + 1] = transfer.pose_cmd
-            h_pm[n + 1] = transfer.pose_meas
+            h_pq[n + 1] = transfer.plate_qpos
         if not (np.abs(f).max() <= flim_min) and (np.abs(f) > lim_f).any():
             for k in np.flatnonzero(active):
                 for j, d in enumerate(base.dofs):
@@ -514,7 +524,7 @@ def _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, a
     for b in buffers:
         b.n = N + 1
     rtf = steps_done * dt / wall if wall > 0 else math.inf
-    if reference:
+    if reference and reference != "defer":
         from .reference import reference_solution
 
         # the reference uses the same model of the part as the test: on the platform the
@@ -538,7 +548,7 @@ def _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, a
         d = b.data[: b.n]
         rec = Record(d[:, 0], {c: d[:, i] for i, c in enumerate(b.columns) if i},
                      dict(b.meta))
-        if not reference:
+        if not reference:  # "defer": the columns stay, filled in by run_batch
             for d in base.dofs:
                 rec.columns.pop(f"z_ref.{d}", None)
             for i in range(num.n):
@@ -573,10 +583,19 @@ def run(scene: Scene, transfer: str | None = None, *, reference: bool = True,
 
 def _group_key(s: Scene) -> tuple:
     # tests stepped together must share the time grid, DOFs, transfer and (for MuJoCo
-    # specimens) the part's model; numerical parameters may differ freely
-    exp = s.experiment if (s.transfer.kind == "stewart" or s.experiment.kind == "multidof") \
-        else (s.experiment.kind, s.experiment.substeps)
-    return (s.dt, s.duration, s.dofs, s.transfer, s.sensor, s.safety, exp, s.numerical.integrator,
+    # specimens) the part's model; numerical parameters may differ freely. On the Stewart
+    # platform the parts' parameters and the leg-servo settings may differ too (per-test
+    # models of one structure): only the part kind, the actuator delay and whether the servo
+    # has a lag change the model's structure.
+    tr = s.transfer
+    if tr.kind == "stewart":
+        tr = replace(tr, kp=0.0, kv=0.0, velocity_ff=False, timeconst=float(tr.timeconst > 0))
+        exp = (s.experiment.kind, s.experiment.substeps)
+    elif s.experiment.kind == "multidof":
+        exp = s.experiment
+    else:
+        exp = (s.experiment.kind, s.experiment.substeps)
+    return (s.dt, s.duration, s.dofs, tr, s.sensor, s.safety, exp, s.numerical.integrator,
             np.array(s.numerical.gamma).tobytes())
 
 
@@ -610,12 +629,50 @@ def run_batch(scene: Scene, param_sets: Sequence[Mapping[str, Any]], transfer: s
     for idx in groups.values():
         for start in range(0, len(idx), max_k):
             part = idx[start:start + max_k]
-            res = _run_group([scenes[i] for i in part], reference=reference, nthread=nthread,
+            # the reference does not depend on the transfer system: it is computed once for
+            # all groups below (bigger batches, one pass)
+            res = _run_group([scenes[i] for i in part],
+                             reference="defer" if reference else False, nthread=nthread,
                              control=None, buffers_out=None, progress=progress,
                              specimen=specimen)
             for i, r in zip(part, res, strict=True):
                 results[i] = r
+    if reference:
+        _fill_references(scenes, results, max_k=max_k, nthread=nthread, specimen=specimen,
+                         progress=progress)
     return results  # type: ignore[return-value]
+
+
+def _reference_key(s: Scene, specimen: str) -> tuple:
+    # tests whose references can be computed together: same time grid and DOFs, same kind of
+    # part model (MuJoCo models of one structure, or the numpy specimen), same numerical size
+    rspec = "mujoco" if (s.transfer.kind == "stewart" or specimen == "mujoco") else "auto"
+    return (s.dt, s.duration, s.dofs, s.experiment.kind, s.experiment.substeps, rspec,
+            len(s.numerical.M), np.array(s.numerical.gamma).tobytes())
+
+
+def _fill_references(scenes: list[Scene], results: list, *, max_k: int, nthread: int,
+                     specimen: str, progress: bool) -> None:
+    """Compute z^r for the deferred tests of :func:`run_batch` and write it into their records
+    (the ``z_ref.*``/``x_ref.*`` columns, truncated like the record for stopped tests)."""
+    from .reference import reference_solution
+
+    groups: dict[tuple, list[int]] = {}
+    for i, s in enumerate(scenes):
+        groups.setdefault(_reference_key(s, specimen), []).append(i)
+    for key, idx in groups.items():
+        rspec = key[5]
+        for start in range(0, len(idx), max_k):
+            part = idx[start:start + max_k]
+            ref = reference_solution([scenes[i] for i in part], nthread=nthread,
+                                     specimen=rspec, progress=progress)
+            for k, i in enumerate(part):
+                rec = results[i].record
+                n = len(rec.t)
+                for j, d in enumerate(scenes[i].dofs):
+                    rec.columns[f"z_ref.{d}"][:] = ref["z_ref"][k, :n, j]
+                for j in range(ref["x_ref"].shape[2]):
+                    rec.columns[f"x_ref.{j}"][:] = ref["x_ref"][k, :n, j]
 
 
 # ---------------------------------------------------------------------------- one test, fast

@@ -362,3 +362,57 @@ def test_world_contact_force_reaches_interface_wrench():
     assert compression > 0.002  # the surface holds the mass while the plate rises 5 mm
     assert sim.interface_wrench[2] == pytest.approx(k * compression, rel=0.02)
     assert sim.model.geom("stop").contype == 1  # world geoms keep MuJoCo's defaults
+
+
+def test_batch_translation_path_matches_full_path():
+    """The translation-only IK and the translational interface force equal the full 6-DOF path
+    (same leg commands, same plate motion, same F'_m rows)."""
+    cfg = PlatformConfig()
+    poses = sine_trajectory("z", 0.004, 2.0, 0.2, ramp=0.05)
+    poses[:, 0] = 0.3 * poses[:, 2]  # surge with heave, no rotation
+    full = PlatformBatch(cfg, nsim=2, nthread=1, payload_xml=PAYLOAD)
+    fast = PlatformBatch(cfg, nsim=2, nthread=1, payload_xml=PAYLOAD)
+    rows = np.array([0, 2])
+    for q in poses:
+        cmd = np.tile(q, (2, 1))
+        np.testing.assert_allclose(fast._ik_translation(cmd), full._ik(cmd), atol=1e-15)
+        full.step(cmd)
+        fast.step(cmd, translation_only=True)
+        np.testing.assert_allclose(fast.plate_qpos, full.plate_qpos, atol=1e-12)
+        np.testing.assert_allclose(fast.interface_force(rows),
+                                   full.interface_wrench[:, rows], atol=1e-9)
+    assert np.abs(full.pose[:, 2]).max() > 1e-3  # it moved
+
+
+def test_plate_pose_of_qpos_rows_matches_scalar_conversion():
+    """plate_pose over (…, 7) rows gives the scalar pose conversion of PlatformSim."""
+    from rths3d.platform.sim import _quat_to_euler, plate_pose
+
+    rng = np.random.default_rng(3)
+    q = rng.normal(size=(4, 5, 7))
+    q[..., 3:] /= np.linalg.norm(q[..., 3:], axis=-1, keepdims=True)
+    out = plate_pose(q, 0.5)
+    for i in range(4):
+        for j in range(5):
+            w, x, y, z = q[i, j, 3:]
+            exp = (q[i, j, 0], q[i, j, 1], q[i, j, 2] - 0.5, *_quat_to_euler(w, x, y, z))
+            np.testing.assert_allclose(out[i, j], exp, atol=1e-12)
+
+
+def test_batch_variants_per_test_servo_settings():
+    """Per-test servo settings in one batch: each test tracks like its own single platform."""
+    fast = PlatformConfig(actuator=ActuatorConfig(kp=3e5, velocity_ff=True))
+    slow = PlatformConfig(actuator=ActuatorConfig(kp=1e5, velocity_ff=False, timeconst=0.006))
+    poses = sine_trajectory("z", 0.004, 2.0, 0.3, ramp=0.1)
+    batch = PlatformBatch(nsim=2, nthread=1, variants=[(fast, None, None), (slow, None, None)])
+    z = np.zeros((poses.shape[0], 2))
+    for k, q in enumerate(poses):
+        batch.step(np.tile(q, (2, 1)), translation_only=True)
+        z[k] = batch.pose[:, 2]
+    for j, cfg in enumerate((fast, slow)):
+        single = track(poses, cfg)
+        np.testing.assert_allclose(z[:, j], single.columns["pose_meas.z"], atol=1e-12)
+    assert np.abs(z[:, 0] - z[:, 1]).max() > 1e-5
+    with pytest.raises(ConfigError, match="delay"):
+        PlatformBatch(nsim=2, variants=[(fast, None, None), (PlatformConfig(
+            actuator=ActuatorConfig(delay=0.004)), None, None)])

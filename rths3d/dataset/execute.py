@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import ConfigError
+from .runner import THREADS_ENV
 from .spec import SweepSpec
 from .store import SweepStore
 
@@ -124,8 +125,10 @@ def _run_pool(spec, todo, n, rec_dir, rows_fn, finished) -> None:
 
 
 def _worker_init() -> None:
-    # One core per worker process: the parallelism is across processes.
+    # One core per worker process: the parallelism is across processes (MuJoCo batches too:
+    # two 2-thread batches on 2 cores thrash, one thread each does not).
     os.environ.setdefault("OMP_NUM_THREADS", "1")
+    os.environ.setdefault(THREADS_ENV, "1")
     try:
         import torch
 

@@ -12,6 +12,7 @@ whose parameters are invalid is kept as a row with its reason.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -21,6 +22,10 @@ from .spec import SweepSpec
 from .table import FEATURE, PARAM, SET_1, TARGET, TARGETS
 
 MEASURE = "measure."
+
+THREADS_ENV = "RTHS3D_THREADS"
+"""Environment variable: threads of a batch's MuJoCo thread pool (0 or unset: 2). Local
+worker processes set it to 1."""
 
 
 def _overrides(spec: SweepSpec, test: dict[str, Any]) -> dict[str, Any]:
@@ -109,14 +114,15 @@ def run_rows(spec: SweepSpec, tests: list[dict[str, Any]], records_dir: str | No
         fam = next(f for f in spec.families if f.name == fam_name)
         base = load_scene(spec.scene_path(fam))
         sets = [_overrides(spec, tests[i]) for i in idx]
+        nthread = int(os.environ.get(THREADS_ENV) or 0)
         try:
-            results = run_batch(base, sets)
+            results = run_batch(base, sets, nthread=nthread)
         except RthsError:
             # isolate the offending test(s); the others still run
             results = []
             for ps in sets:
                 try:
-                    results.append(run_batch(base, [ps])[0])
+                    results.append(run_batch(base, [ps], nthread=nthread)[0])
                 except RthsError as exc:
                     results.append(exc)
         for i, res in zip(idx, results, strict=True):

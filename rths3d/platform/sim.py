@@ -16,6 +16,7 @@ step, so after ``step`` the FTS wrench and leg forces describe the state one phy
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -132,6 +133,23 @@ def _quat_to_euler(w: float, x: float, y: float, z: float) -> tuple[float, float
     r00 = 1.0 - 2.0 * (y * y + z * z)
     r20 = -1.0 if r20 < -1.0 else (1.0 if r20 > 1.0 else r20)
     return math.atan2(r21, r22), -math.asin(r20), math.atan2(r10, r00)
+
+
+def plate_pose(q: np.ndarray, home_height: float) -> np.ndarray:
+    """Poses (..., 6) relative to home (m, rad) of plate ``qpos`` rows (..., 7).
+
+    ``q`` = [x, y, z, w, qx, qy, qz] (MuJoCo free joint: position, unit quaternion); the
+    angles are the fixed-axis (rx, ry, rz) of :func:`_quat_to_euler`, R = Rz Ry Rx. Loops keep
+    the raw rows per step and convert whole histories at once with this.
+    """
+    w, x, y, z = q[..., 3], q[..., 4], q[..., 5], q[..., 6]
+    out = np.empty(q.shape[:-1] + (6,))
+    out[..., :3] = q[..., :3]
+    out[..., 2] -= home_height
+    out[..., 3] = np.arctan2(2 * (y * z + w * x), 1 - 2 * (x * x + y * y))
+    out[..., 4] = np.arcsin(np.clip(2 * (w * y - x * z), -1.0, 1.0))
+    out[..., 5] = np.arctan2(2 * (x * y + w * z), 1 - 2 * (y * y + z * z))
+    return out
 
 
 def _make_step(sim: PlatformSim):
@@ -431,7 +449,8 @@ class PlatformBatch:
 
     def __init__(self, config: PlatformConfig | None = None, nsim: int = 1, nthread: int = 0,
                  payload_xml: str | None = None, world_xml: str | None = None,
-                 settle: float = 0.05):
+                 settle: float = 0.05, *,
+                 variants: Sequence[tuple[PlatformConfig, str | None, str | None]] | None = None):
         import mujoco
         from mujoco.batch import Batch
 
@@ -439,12 +458,41 @@ class PlatformBatch:
 
         if not (isinstance(nsim, int) and nsim >= 1):
             raise ConfigError("nsim", nsim, "must be an integer >= 1")
+        if variants is not None:
+            # per-test (config, payload, world): one model structure, per-test parameters
+            if len(variants) != nsim:
+                raise ConfigError("variants", len(variants), f"need one per test ({nsim})")
+            config = variants[0][0]
+            shared = ("geometry", "dt", "substeps", "stroke", "velocity_limit", "force_limit")
+            for cfg_k, _, _ in variants:
+                for name in shared:
+                    if getattr(cfg_k, name) != getattr(config, name):
+                        raise ConfigError(f"platform.{name}", getattr(cfg_k, name),
+                                          "must be the same for tests stepped together")
+                if (cfg_k.actuator.delay, cfg_k.actuator.timeconst > 0) != \
+                        (config.actuator.delay, config.actuator.timeconst > 0):
+                    raise ConfigError("platform.actuator", cfg_k.actuator,
+                                      "delay and lag (on/off) must match for tests stepped "
+                                      "together (they change the model's structure)")
+            payload_xml, world_xml = variants[0][1], variants[0][2]
         self.config = config = config or PlatformConfig()
         self.model = build_model(config, payload_xml, world_xml)
         self.nsim = nsim
         self.ids = _Ids(self.model)
         self.settle = float(settle)
         self.batch = Batch(self.model, nsim, nthread)
+        self._cfgs = [config] * nsim
+        if variants is not None and len(set(variants)) > 1:
+            compiled: dict = {variants[0]: self.model}
+            for v in variants:
+                if v not in compiled:
+                    compiled[v] = build_model(*v)
+            try:
+                self.batch.set_models([compiled[v] for v in variants])
+            except ValueError as exc:
+                raise ConfigError("variants", None, "", message="tests stepped together need "
+                                  f"one model structure: {exc}") from exc
+            self._cfgs = [v[0] for v in variants]
         self._ctrl = self.batch.bind("ctrl")
         self._qpos = self.batch.bind("qpos")
         self._qvel = self.batch.bind("qvel")
@@ -458,12 +506,15 @@ class PlatformBatch:
         from .kinematics import inverse_kinematics
 
         self._inverse_kinematics = inverse_kinematics
-        a = config.actuator
         self._half = config.stroke / 2
         self._vmax = float(config.velocity_limit)
         self._vdt = self._vmax * config.dt
         self._fmax = float(config.force_limit)
-        self._ffg = (a.kv / a.kp / config.dt) if a.velocity_ff else 0.0
+        # velocity feed-forward gain per test (K, 1)
+        self._ffg = np.array([[(c.actuator.kv / c.actuator.kp / c.dt)
+                               if c.actuator.velocity_ff else 0.0] for c in self._cfgs])
+        if not self._ffg.any():
+            self._ffg = 0.0
         ids = self.ids
         a0 = int(ids.act[0])
         self._act_slice = (a0, a0 + 6)
@@ -476,6 +527,14 @@ class PlatformBatch:
         self._b = g.base_anchors()
         self._p = g.top_anchors()
         self._hh = float(g.home_height)
+        # pure translation (R = I): leg vector = q_xyz + (p − b) + [0, 0, h_home]
+        self._a = (self._p - self._b) + np.array([0.0, 0.0, self._hh])
+        pa = self.ids.plate_qpos
+        self.plate_qpos = self._qpos[:, pa:pa + 7]
+        """Live (K, 7) view of the plate's free-joint qpos (position m, quaternion wxyz)."""
+        fa = self.ids.force_adr
+        self._fts_force = self._sensor[:, fa:fa + 3]
+        self._fts_R = self._xmat[:, self.ids.fts_site].reshape(nsim, 3, 3)
         self.stopped = np.zeros(nsim, dtype=bool)
         self.reasons = [""] * nsim
         self.stop_time = np.full(nsim, np.nan)
@@ -500,8 +559,8 @@ class PlatformBatch:
         for k in range(self.nsim):
             mk = self.batch.get_model(k)
             mujoco.mj_resetData(mk, d)
-            st = static_state(cfg, mk, d, self.ids)
-            if cfg.actuator.gravity_comp:
+            st = static_state(self._cfgs[k], mk, d, self.ids)
+            if self._cfgs[k].actuator.gravity_comp:
                 offs[k] = st.offsets
             pre[k] = st.preload
             d.ctrl[self.ids.act] = offs[k]
@@ -551,6 +610,14 @@ class PlatformBatch:
         lz = (q[:, 2:3] + self._hh) - sy * px + (cy * sx) * py - b[:, 2]
         return np.sqrt(lx * lx + ly * ly + lz * lz)
 
+    def _ik_translation(self, q: np.ndarray) -> np.ndarray:
+        """Leg lengths (K, 6) of pure translations (rotation columns of ``q`` ignored)."""
+        a = self._a
+        lx = q[:, 0:1] + a[:, 0]
+        ly = q[:, 1:2] + a[:, 1]
+        lz = q[:, 2:3] + a[:, 2]
+        return np.sqrt(lx * lx + ly * ly + lz * lz)
+
     def _freeze(self, k: int, stop: SafetyStop) -> None:
         if not self.stopped[k]:
             self._any_stopped = True
@@ -578,8 +645,12 @@ class PlatformBatch:
                                                 _MAXVAL, 0.0 if settling else self.t,
                                                 test=int(k)))
 
-    def step(self, poses: np.ndarray) -> None:
-        """Command poses (K, 6) (m, rad, relative to home) for one interface step ΔT."""
+    def step(self, poses: np.ndarray, translation_only: bool = False) -> None:
+        """Command poses (K, 6) (m, rad, relative to home) for one interface step ΔT.
+
+        ``translation_only``: the caller guarantees rx = ry = rz = 0 (an interface without
+        rotational DOFs), so the inverse kinematics skips the rotation.
+        """
         cfg = self.config
         poses = np.asarray(poses, dtype=float)
         if poses.shape != (self.nsim, 6):
@@ -587,7 +658,7 @@ class PlatformBatch:
 
             raise ConfigError("poses", f"array of shape {poses.shape}",
                               f"need ({self.nsim}, 6)")
-        L = self._ik(poses)
+        L = self._ik_translation(poses) if translation_only else self._ik(poses)
         s = L - self._home
         dL = L - self._Lprev
         half, vdt = self._half, self._vdt
@@ -652,16 +723,7 @@ class PlatformBatch:
     @property
     def pose(self) -> np.ndarray:
         """Achieved plate poses relative to home (K, 6), m and rad."""
-        a = self.ids.plate_qpos
-        pq = self._qpos[:, a:a + 7]
-        w, x, y, z = pq[:, 3], pq[:, 4], pq[:, 5], pq[:, 6]
-        out = np.empty((self.nsim, 6))
-        out[:, :3] = pq[:, :3]
-        out[:, 2] -= self._hh
-        out[:, 3] = np.arctan2(2 * (y * z + w * x), 1 - 2 * (x * x + y * y))
-        out[:, 4] = np.arcsin(np.clip(2 * (w * y - x * z), -1.0, 1.0))
-        out[:, 5] = np.arctan2(2 * (x * y + w * z), 1 - 2 * (y * y + z * z))
-        return out
+        return plate_pose(self.plate_qpos, self._hh)
 
     @property
     def leg_lengths(self) -> np.ndarray:
@@ -689,3 +751,12 @@ class PlatformBatch:
         out[:, :3] = np.einsum("kij,kj->ki", R, w[:, :3])
         out[:, 3:] = np.einsum("kij,kj->ki", R, w[:, 3:])
         return out - self._pre
+
+    def interface_force(self, rows: np.ndarray) -> np.ndarray:
+        """Translational rows ``rows`` (axes 0–2) of :attr:`interface_wrench`, (K, len(rows)).
+
+        The same world-axis force with the preload removed, without the torque rotation (the
+        hot path of interfaces that use only translations).
+        """
+        return (self._fts_R[:, rows, :] @ self._fts_force[:, :, None])[:, :, 0] \
+            - self._pre[:, rows]

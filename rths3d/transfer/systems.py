@@ -91,22 +91,38 @@ class ActuatorTransfer:
 class StewartTransfer:
     """The MuJoCo Stewart platform carrying the experimental part (K tests)."""
 
-    def __init__(self, scene: Scene, K: int, nthread: int = 0):
+    def __init__(self, scene: Scene, K: int, nthread: int = 0,
+                 scenes: Sequence[Scene] | None = None):
+        """``scenes``: one per test when the tests' leg-servo settings (kp, kv, lag time
+        constant, velocity feed-forward) or parts' parameters differ (same part kind, actuator
+        delay and lag on/off); default: all K tests are ``scene``."""
         from ..experiment.mjcf import payload_xml, world_xml
         from ..platform.model import ActuatorConfig, PlatformConfig, predicted_delay
 
         tr = scene.transfer
         self.name = "stewart"
         self.K, self.n_if = K, len(scene.dofs)
-        cfg = PlatformConfig(
-            actuator=ActuatorConfig(kp=tr.kp, kv=tr.kv, timeconst=tr.timeconst,
-                                    delay=tr.delay, velocity_ff=tr.velocity_ff),
-            dt=scene.dt, substeps=tr.substeps)
+
+        def config_of(t):
+            return PlatformConfig(
+                actuator=ActuatorConfig(kp=t.kp, kv=t.kv, timeconst=t.timeconst,
+                                        delay=t.delay, velocity_ff=t.velocity_ff),
+                dt=scene.dt, substeps=t.substeps)
+
+        cfg = config_of(tr)
         self.config = cfg
         g = cfg.geometry
         site = (0.0, 0.0, g.home_height + g.fts_height)
         pxml = payload_xml(scene.experiment)
         wxml = world_xml(scene.experiment, site)
+        variants = None
+        if scenes is not None and K > 1:
+            if len(scenes) != K:
+                raise ValueError(f"scenes: {len(scenes)} given for K = {K} tests")
+            variants = [(config_of(sc.transfer), payload_xml(sc.experiment),
+                         world_xml(sc.experiment, site)) for sc in scenes]
+            if len(set(variants)) == 1:
+                variants = None
         self.idx = [DOFS.index(d) for d in scene.dofs]
         self.compensator = Compensator(K, self.n_if, tr.compensation, tr.comp_time, scene.dt,
                                        tr.poly_order)
@@ -122,20 +138,43 @@ class StewartTransfer:
             from ..platform.sim import PlatformBatch
 
             self.sim = PlatformBatch(cfg, nsim=K, nthread=nthread or 2, payload_xml=pxml,
-                                     world_xml=wxml)
+                                     world_xml=wxml, variants=variants)
         self.pose_cmd = np.zeros((K, 6))
-        self.pose_meas = np.zeros((K, 6))
+        self.home_height = float(g.home_height)
+        # an interface without rotations: IK without rotation, z' and F'_m read directly
+        self._translation_only = all(i < 3 for i in self.idx)
+        self._idx = np.array(self.idx)
+        # z' of a translational DOF: plate position minus home (rotations: see step)
+        self._z_off = np.array([0.0, 0.0, self.home_height, 0.0, 0.0, 0.0])[self._idx]
+        if self.single:
+            self.plate_qpos = self.sim._plate_q[None, :]
+        else:
+            self.plate_qpos = self.sim.plate_qpos
+        """Live (K, 7) view of the plate's measured free-joint qpos (m, quaternion wxyz)."""
         self.z_meas = np.zeros((K, self.n_if))
         self.f_meas = np.zeros((K, self.n_if))
         self.stopped = np.zeros(K, dtype=bool)
         self.reasons = [""] * K
-        self.meta = {"predicted_delay": predicted_delay(cfg, 1.0), "kp": tr.kp, "kv": tr.kv,
-                     "timeconst": tr.timeconst, "actuator_delay": tr.delay,
-                     "velocity_ff": tr.velocity_ff, "substeps": tr.substeps}
+        def meta_of(t, c) -> dict:
+            return {"predicted_delay": predicted_delay(c, 1.0), "kp": t.kp, "kv": t.kv,
+                    "timeconst": t.timeconst, "actuator_delay": t.delay,
+                    "velocity_ff": t.velocity_ff, "substeps": t.substeps}
+
+        self.meta = meta_of(tr, cfg)
+        self.metas = [self.meta] * K if variants is None else \
+            [meta_of(sc.transfer, v[0]) for sc, v in zip(scenes, variants, strict=True)]
+        """Per-test metadata (leg-servo settings and the delay they predict)."""
 
     @property
     def model(self):
         return self.sim.model
+
+    @property
+    def pose_meas(self) -> np.ndarray:
+        """Achieved plate poses (K, 6) relative to home (m, rad), from :attr:`plate_qpos`."""
+        from ..platform.sim import plate_pose
+
+        return plate_pose(self.plate_qpos, self.home_height)
 
     def reset(self) -> None:
         self.sim.reset()
@@ -153,31 +192,39 @@ class StewartTransfer:
         if self.single:
             p = self.pose_cmd[0].tolist()
             self.sim.step(p[0], p[1], p[2], p[3], p[4], p[5])
-            self.pose_meas[0] = self.sim.pose
+            self.z_meas[0] = np.asarray(self.sim.pose)[self.idx]
             w = np.asarray(self.sim.interface_wrench)
             f = w[self.idx][None, :]
         else:
-            self.sim.step(self.pose_cmd)
-            self.pose_meas[:] = self.sim.pose
-            f = self.sim.interface_wrench[:, self.idx]
-            if self.sim.stopped.any():
-                self.stopped[:] = self.sim.stopped
-                self.reasons = list(self.sim.reasons)
-        self.z_meas[:] = self.pose_meas[:, self.idx]
+            sim = self.sim
+            if self._translation_only:
+                sim.step(self.pose_cmd, translation_only=True)
+                np.subtract(self.plate_qpos[:, self._idx], self._z_off, out=self.z_meas)
+                f = sim.interface_force(self._idx)
+            else:
+                sim.step(self.pose_cmd)
+                self.z_meas[:] = sim.pose[:, self._idx]
+                f = sim.interface_wrench[:, self._idx]
+            if sim.stopped.any():
+                self.stopped[:] = sim.stopped
+                self.reasons = list(sim.reasons)
         self.f_meas[:] = self.sensor(f)
 
 
 def build_transfer(scene: Scene, K: int, experiments: Sequence[ExperimentConfig] | None = None,
-                   nthread: int = 0, specimen: str = "auto") -> TransferSystem:
+                   nthread: int = 0, specimen: str = "auto", *,
+                   scenes: Sequence[Scene] | None = None) -> TransferSystem:
     """The transfer system of ``scene`` for K tests.
 
     ``experiments``: per-test :class:`~rths3d.scene.ExperimentConfig` (default: the scene's).
+    ``scenes``: per-test scenes for the Stewart platform, whose leg-servo settings and parts
+    may differ test by test (see :class:`StewartTransfer`).
     ``specimen``: ``numpy`` (the vectorised 1-D model), ``mujoco`` or ``auto`` (numpy for
     1-D parts, MuJoCo for the multi-DOF part).
     """
     tr = scene.transfer
     if tr.kind == "stewart":
-        return StewartTransfer(scene, K, nthread)
+        return StewartTransfer(scene, K, nthread, scenes=scenes)
     exps = experiments or [scene.experiment] * K
     n_if = len(scene.dofs)
     kind = scene.experiment.kind
