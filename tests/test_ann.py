@@ -238,3 +238,53 @@ def test_regression_plots_written(fitted, tmp_path) -> None:
     mean, std = model.predict(x[te], return_std=True)
     p = save_figures(tmp_path / "fig.png", {"test": (y[te], mean)}, spread={"test": std})
     assert p.stat().st_size > 10_000
+
+
+def test_log_transform_is_default_and_fits_power_laws_over_decades() -> None:
+    """The default transform is 'log' (stored in the model); on a power law spanning three
+    decades it beats the paper's linear map, and signed columns (a lead: fei_d < 0) stay finite."""
+    rng = np.random.default_rng(3)
+    x = 10.0 ** rng.uniform(-3.0, 0.0, (300, 3))
+    x[:, 2] = rng.uniform(-0.002, 0.013, 300)  # a signed, delay-like column
+    y = 0.5 * x[:, 0] ** 1.5 * x[:, 1] ** 0.5
+    log = FidelityANN(topologies=((5,),), n_trainings=3, seed=0).fit(x, y)
+    lin = FidelityANN(topologies=((5,),), n_trainings=3, seed=0, transform="linear").fit(x, y)
+    assert log.transform == "log" and log.to_dict()["transform"] == "log"
+    assert log.compress.log_cols == (True, True, False) and log.compress.log_y
+    r_log, r_lin = log.scores(x, y)["r_test"], lin.scores(x, y)["r_test"]
+    assert r_log > 0.99 and r_log > r_lin
+    assert np.isfinite(log.predict(x[:5] * [1, 1, -3], warn=False)).all()
+
+
+def test_bypass_jacobian_matches_autograd() -> None:
+    """With the linear bypass the analytic LM Jacobian still equals torch autograd's."""
+    topo = Topology(3, (4, 3), bypass=True)
+    assert topo.n_weights == Topology(3, (4, 3)).n_weights + 3 and topo.label() == "4x3+lin"
+    w = init_weights(topo, np.random.default_rng(0)) * 1.5
+    w[-3:] = torch.tensor([0.3, -0.2, 0.5], dtype=torch.float64)
+    x = torch.as_tensor(np.random.default_rng(1).uniform(-1, 1, (40, 3)), dtype=torch.float64)
+    a, j = jacobian(topo, w, x)
+    assert torch.allclose(a, forward(topo, w, x), atol=1e-14)
+    assert torch.allclose(j, jacrev(lambda v: forward(topo, v, x))(w), atol=1e-12)
+
+
+def test_bypass_extrapolates_beyond_training_range(tmp_path) -> None:
+    """A plain satlins net flattens beyond the largest training target; the bypass net (the
+    default) follows the trend there, and save/load keeps it (old files load as plain nets)."""
+    rng = np.random.default_rng(5)
+    x = 10.0 ** rng.uniform(-3.0, 0.0, (300, 2))
+    y = 0.5 * x[:, 0] ** 1.5 * x[:, 1] ** 0.5
+    x_far = np.array([[2.0, 2.0], [4.0, 3.0]])  # targets 1.4 and 6.9, training max ~0.5
+    y_far = 0.5 * x_far[:, 0] ** 1.5 * x_far[:, 1] ** 0.5
+    kw = dict(topologies=((5,),), n_trainings=3, seed=0)
+    by = FidelityANN(**kw).fit(x, y)
+    plain = FidelityANN(bypass=False, **kw).fit(x, y)
+    assert by.topology.bypass and not plain.topology.bypass
+    err_by = np.abs(np.log10(by.predict(x_far, warn=False) / y_far))
+    err_plain = np.abs(np.log10(plain.predict(x_far, warn=False) / y_far))
+    assert err_by.max() < 0.05 and err_plain.max() > 0.3
+    back = FidelityANN.load(by.save(tmp_path / "m.json"))
+    assert np.array_equal(back.predict(x_far, warn=False), by.predict(x_far, warn=False))
+    old = plain.to_dict()
+    old.pop("bypass")
+    assert not FidelityANN.from_dict(old).topology.bypass

@@ -2,8 +2,11 @@
 
 Layers: ``n_in → h_1 → … → h_k → 1``; hidden activation the symmetric saturating linear
 function ``satlins(g) = clip(g, −1, 1)`` (MATLAB ``satlins``, torch ``hardtanh``), output
-activation linear (the paper's choice for regression). Inputs and targets are expected already
-normalised to [−1, 1] (see :mod:`rths3d.ann.normalize`).
+activation linear (the paper's choice for regression). With ``bypass=True`` the inputs also feed
+the output directly (a linear bypass, as MATLAB's ``cascadeforwardnet``): the net is a linear
+model plus saturating corrections, so it keeps extrapolating along the linear trend where every
+hidden unit saturates, instead of flattening at the edge of the training range. Inputs and
+targets are expected already normalised to [−1, 1] (see :mod:`rths3d.ann.normalize`).
 
 The weights live in ONE flat float64 vector ``w`` so that Levenberg–Marquardt can form the
 Jacobian of the residuals with respect to all weights at once.
@@ -28,6 +31,8 @@ class Topology:
 
     n_in: int
     hidden: tuple[int, ...] = (5,)
+    bypass: bool = False
+    """Direct input → output weights (a linear bypass; ``n_in`` extra weights, stored last)."""
 
     def __post_init__(self) -> None:
         from ..errors import ConfigError
@@ -49,11 +54,12 @@ class Topology:
     def n_weights(self) -> int:
         """Number of weights and biases."""
         s = self.sizes
-        return sum((s[i] + 1) * s[i + 1] for i in range(len(s) - 1))
+        return sum((s[i] + 1) * s[i + 1] for i in range(len(s) - 1)) + \
+            (self.n_in if self.bypass else 0)
 
     def label(self) -> str:
-        """Short text label, e.g. ``"5"`` or ``"10x10"``."""
-        return "x".join(str(h) for h in self.hidden)
+        """Short text label, e.g. ``"5"``, ``"10x10"``, ``"5+lin"`` (with the bypass)."""
+        return "x".join(str(h) for h in self.hidden) + ("+lin" if self.bypass else "")
 
 
 def _slices(topo: Topology) -> list[tuple[slice, slice, int, int]]:
@@ -65,6 +71,11 @@ def _slices(topo: Topology) -> list[tuple[slice, slice, int, int]]:
         out.append((slice(k, k + n_w), slice(k + n_w, k + n_w + s[i + 1]), s[i], s[i + 1]))
         k += n_w + s[i + 1]
     return out
+
+
+def _bypass_slice(topo: Topology) -> slice:
+    n = topo.n_weights
+    return slice(n - topo.n_in, n)
 
 
 def forward(topo: Topology, w: torch.Tensor, x: torch.Tensor) -> torch.Tensor:
@@ -80,7 +91,10 @@ def forward(topo: Topology, w: torch.Tensor, x: torch.Tensor) -> torch.Tensor:
         a = a @ weight.T + w[sb]
         if i < last:
             a = torch.clamp(a, -1.0, 1.0)
-    return a[:, 0]
+    out = a[:, 0]
+    if topo.bypass:
+        out = out + x @ w[_bypass_slice(topo)]
+    return out
 
 
 def jacobian(topo: Topology, w: torch.Tensor, x: torch.Tensor
@@ -114,7 +128,12 @@ def jacobian(topo: Topology, w: torch.Tensor, x: torch.Tensor
         jac[:, sb] = delta
         if i > 0:
             delta = (delta @ w[sw].reshape(n_next, n_prev)) * masks[i - 1]
-    return a[:, 0], jac
+    out = a[:, 0]
+    if topo.bypass:
+        sk = _bypass_slice(topo)
+        out = out + x @ w[sk]
+        jac[:, sk] = x
+    return out, jac
 
 
 def init_weights(topo: Topology, rng: np.random.Generator) -> torch.Tensor:
@@ -123,7 +142,7 @@ def init_weights(topo: Topology, rng: np.random.Generator) -> torch.Tensor:
     Each hidden layer of H neurons over n inputs gets random weight rows scaled to length
     β = 0.7 H^(1/n) and biases spread uniformly in [−β, β], so the active (linear) regions of
     the neurons tile the normalised input box [−1, 1]^n. The output layer is uniform in
-    [−0.5, 0.5].
+    [−0.5, 0.5]; bypass weights (``bypass=True``) start at 0.
     """
     parts = []
     layers = _slices(topo)
@@ -139,6 +158,8 @@ def init_weights(topo: Topology, rng: np.random.Generator) -> torch.Tensor:
         else:
             parts += [rng.uniform(-0.5, 0.5, size=n_prev * n_next),
                       rng.uniform(-0.5, 0.5, size=n_next)]
+    if topo.bypass:
+        parts.append(np.zeros(topo.n_in))
     return torch.as_tensor(np.concatenate(parts), dtype=DTYPE)
 
 

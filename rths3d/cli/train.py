@@ -49,9 +49,13 @@ def train(
     exclude: list[str] = typer.Option(None, "--exclude", help="Leave these families out."),
     target: str = typer.Option("e_rel_ref", "--target", help="Target column (target.<name>)."),
     plot: Path = typer.Option(None, "--plot", help="Write regression/prediction plots (PNG)."),
-    transform: str = typer.Option("linear", "--transform",
-                                  help="linear (the paper's [-1, 1] map) or log (compress "
-                                       "heavy-tailed features and target first)."),
+    transform: str = typer.Option("log", "--transform",
+                                  help="log (default: compress heavy-tailed features and "
+                                       "target first) or linear (the paper's [-1, 1] map)."),
+    bypass: bool = typer.Option(True, "--bypass/--no-bypass",
+                                help="Linear input-output weights besides the hidden layers "
+                                     "(extrapolates along the trend); --no-bypass: the "
+                                     "paper's plain FNN."),
 ) -> None:
     """Train the fidelity ANN (LM, early stopping, 70/15/15, topology search, 5 trainings).
 
@@ -67,7 +71,7 @@ def train(
     if len(y) < 10:
         raise ConfigError("table", f"{len(y)} usable rows", "need at least 10 finished tests")
     model = FidelityANN(topologies=_parse_topologies(topologies), n_trainings=trainings,
-                        seed=seed, transform=transform)
+                        seed=seed, transform=transform, bypass=bypass)
     model.target_name = target
     model.fit(X, y, progress=not as_json)
     model.save(out)
