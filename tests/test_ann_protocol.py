@@ -28,7 +28,7 @@ def test_reproduce_rows_and_scores() -> None:
     linear = table(40, "linear", 2)
     fams = pd.concat([table(150, "contact", 3), table(150, "kelvin", 4), table(60, "linear", 5)])
     rows = reproduce(lti, stewart, linear, fams, left_out="linear", n_trainings=2,
-                     topologies=((5,),), feature_sets=(3,))
+                     topologies=((5,),), feature_sets=(3,), transform="linear")
     systems = [r.system for r in rows]
     assert systems == ["contact, 1-D LTI transfer (vRTHS)", "contact, MuJoCo Stewart platform",
                        "linear Table 2 (contact-trained)", "families without 'linear'",
@@ -39,3 +39,24 @@ def test_reproduce_rows_and_scores() -> None:
     assert rows[0].n_train == 140 and rows[0].n_eval == 30
     md = rows_to_markdown(rows)
     assert md.count("\n") == len(rows) + 1 and "| 3 |" in md
+
+
+def test_split_seeds_pool_trainings_of_all_splits() -> None:
+    """With split_seeds the trained and applied rows pool every training of every split
+    (median and worst over splits × trainings) and the splits' test sets differ."""
+    from rths3d.ann.protocol import fit_and_score_splits
+    from rths3d.dataset.table import training_data
+
+    X, y, _ = training_data(table(120, "contact", 0), 3)
+    models, row = fit_and_score_splits(X, y, "contact", 3, split_seeds=(0, 1, 2),
+                                       n_trainings=2, topologies=((5,),))
+    assert len(models) == 3 and len(row.members) == 6
+    assert row.r_eval_worst == min(row.members)
+    assert row.r_eval_median == float(np.median(row.members))
+    assert not np.array_equal(models[0].indices["test"], models[1].indices["test"])
+    Xs, ys, _ = training_data(table(50, "contact", 1), 3)
+    applied = reproduce(table(120, "contact", 0), table(50, "contact", 1), n_trainings=2,
+                        topologies=((5,),), feature_sets=(3,), split_seeds=(0, 1, 2))
+    assert [len(r.members) for r in applied] == [6, 6]
+    assert "3 splits" in applied[1].note
+    assert applied[0].members == row.members
