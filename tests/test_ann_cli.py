@@ -54,6 +54,19 @@ def test_train_json_keys_and_scores(table, tmp_path) -> None:
     assert pr["r"] > 0.99 and pr["extrapolation"] == []
 
 
+def test_train_defaults_and_paper_net_flags(table, tmp_path) -> None:
+    """`rths3d train` defaults to the log map with the linear bypass; --transform linear
+    --no-bypass stores the paper's plain net."""
+    common = ("--features", "3", "--json", "--topologies", "3", "--trainings", "1")
+    for name, extra in (("d.json", ()), ("p.json", ("--transform", "linear", "--no-bypass"))):
+        p = run("train", str(table), "--out", str(tmp_path / name), *common, *extra)
+        assert p.returncode == 0, p.stderr
+    d = json.loads((tmp_path / "d.json").read_text())
+    plain = json.loads((tmp_path / "p.json").read_text())
+    assert (d["transform"], d["bypass"]) == ("log", True)
+    assert (plain["transform"], plain["bypass"]) == ("linear", False)
+
+
 def test_cli_bad_input_one_line_exit_2(table, tmp_path) -> None:
     """Bad feature set or a missing table: one error line, exit code 2, no traceback."""
     p = run("train", str(table), "--features", "4", "--out", str(tmp_path / "m.json"))

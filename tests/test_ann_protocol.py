@@ -54,6 +54,7 @@ def test_split_seeds_pool_trainings_of_all_splits() -> None:
     assert len(models) == 3 and len(row.members) == 6
     assert row.r_eval_worst == min(row.members)
     assert row.r_eval_median == float(np.median(row.members))
+    assert len(row.members_log) == 6 and row.r_log_worst == min(row.members_log) <= 1.0
     assert not np.array_equal(models[0].indices["test"], models[1].indices["test"])
     Xs, ys, _ = training_data(table(50, "contact", 1), 3)
     applied = reproduce(table(120, "contact", 0), table(50, "contact", 1), n_trainings=2,
