@@ -13,6 +13,7 @@ from rths3d.ann import (
     AdamConfig,
     ExtrapolationWarning,
     FidelityANN,
+    LMConfig,
     MinMax,
     Topology,
     mse,
@@ -288,3 +289,17 @@ def test_bypass_extrapolates_beyond_training_range(tmp_path) -> None:
     old = plain.to_dict()
     old.pop("bypass")
     assert not FidelityANN.from_dict(old).topology.bypass
+
+
+def test_lm_survives_singular_normal_matrix() -> None:
+    """A dead hidden unit (zero Jacobian columns) with μ near zero makes JᵀJ + μI singular;
+    LM treats it as a failed step and raises μ instead of aborting the training."""
+    x, y = smooth_data(120, 2)
+    topo = Topology(2, (3,))
+    w0 = init_weights(topo, np.random.default_rng(0))
+    w0[6:9] = torch.tensor([50.0, 0.0, 0.0], dtype=torch.float64)  # hidden unit 0 saturated...
+    w0[0:2] = 0.0                                                   # ...for every input
+    xn, tn = MinMax.fit(x).transform(x), MinMax.fit(y[:, None]).transform(y[:, None])[:, 0]
+    r = train_lm(topo, xn[:90], tn[:90], xn[90:], tn[90:], w0=w0,
+                 config=LMConfig(mu=1e-300, mu_dec=1e-10))
+    assert np.isfinite(r.train_mse) and r.epochs >= 1

@@ -141,7 +141,13 @@ def train_lm(topo: Topology, x_train: np.ndarray, t_train: np.ndarray, x_val: np
                 break
             improved = False
             while mu <= config.mu_max:
-                dw = torch.linalg.solve(jj + mu * eye, je)
+                try:
+                    dw = torch.linalg.solve(jj + mu * eye, je)
+                except torch.linalg.LinAlgError:
+                    # JᵀJ + μI numerically singular (dead units give zero Jacobian columns and
+                    # μ has shrunk below their round-off): a failed step, raise μ
+                    mu *= config.mu_inc
+                    continue
                 w2 = w - dw
                 e2 = resid(w2)
                 perf2 = float(torch.mean(e2 * e2))
