@@ -374,7 +374,8 @@ def _run_group(scenes: list[Scene], *, reference: bool | str, nthread: int,
             h_pc[n + 1] = transfer.pose_cmd
             h_pq[n + 1] = transfer.plate_qpos
         if not (np.abs(f).max() <= flim_min) and (np.abs(f) > lim_f).any():
-            for k in np.flatnonzero(active):
+            # only the active tests over the range (a stopped test may keep diverging)
+            for k in np.flatnonzero(active & (np.abs(f) > lim_f).any(axis=1)):
                 for j, d in enumerate(base.dofs):
                     if abs(f[k, j]) > lim_f[j]:
                         what = "torque" if is_rot[j] else "force"
@@ -435,13 +436,21 @@ def _growth_stop(base: Scene, j: int, ratio: float, t: float, k: int) -> SafetyS
 
 
 def _check_command(num, z, zd, az, active, base, is_rot, lim_z, lim_v, lim_x, dt, n, halt):
-    """Find which test left which command limit and stop it (see :func:`_run_group`)."""
-    for k in np.flatnonzero(active):
-        tk = (n + 1) * dt
-        xk = num.x[k]
-        if not np.all(np.isfinite(xk)) or np.abs(xk).max() > lim_x:
+    """Find which test left which command limit and stop it (see :func:`_run_group`).
+
+    Vectorised over the batch: a stopped test whose transfer state went non-finite keeps
+    tripping the cheap pre-check, so this runs every step then and must not loop over K.
+    """
+    x = num.x
+    # NaN fails `<=`, so a non-finite state counts as out of limits
+    bad_x = ~(np.abs(x) <= lim_x).all(axis=1)
+    bad_z = (az > lim_z).any(axis=1)
+    bad_v = (np.abs(zd) > lim_v).any(axis=1)
+    tk = (n + 1) * dt
+    for k in np.flatnonzero(active & (bad_x | bad_z | bad_v)):
+        if bad_x[k]:
             halt(k, SafetyStop("divergence: numerical displacement |x|",
-                               float(np.nanmax(np.abs(xk))), lim_x, tk, k, "m"), n)
+                               float(np.nanmax(np.abs(x[k]))), lim_x, tk, k, "m"), n)
             continue
         for j, d in enumerate(base.dofs):
             u = "rad" if is_rot[j] else "m"
