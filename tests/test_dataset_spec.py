@@ -105,19 +105,27 @@ def test_store_parts_atomic_and_guarded(tmp_path) -> None:
 
 
 def test_shipped_specs_parse_and_resolve_their_scenes() -> None:
-    """Every spec in scenes/sweeps parses, its scenes exist, and the paper's sizes hold."""
+    """Every spec in scenes/sweeps parses, its scenes exist and take its overrides, and the
+    paper's sizes hold."""
     from pathlib import Path
 
     from rths3d.scene import load_scene
 
     folder = Path(__file__).resolve().parents[1] / "scenes" / "sweeps"
     sizes = {}
+    from rths3d.dataset.runner import _overrides
+    from rths3d.loop import scene_with
+
     for path in sorted(folder.glob("*.toml")):
         spec = load_spec(path)
+        tests = spec.tests()
         for fam in spec.families:
-            load_scene(spec.scene_path(fam))
-        sizes[spec.name] = len(spec.tests())
+            base = load_scene(spec.scene_path(fam))
+            first = next(t for t in tests if t["family"] == fam.name)
+            scene_with(base, _overrides(spec, first))  # its overrides validate
+        sizes[spec.name] = len(tests)
     assert sizes["table1_lti"] == 13230
+    assert sizes["families_wide"] == 1720
     assert sizes["paper280_lti"] == sizes["paper280_stewart"] == 280
     assert sizes["table2_linear"] == 108
 
