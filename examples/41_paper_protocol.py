@@ -43,7 +43,8 @@ def main() -> None:
     ap.add_argument("--transform", choices=("linear", "log"), default="log",
                     help="linear: the paper's [-1, 1] map; log: compress heavy tails first")
     ap.add_argument("--contact", default="paper280_lti",
-                    help="training sweep of contact tests (paper280_lti or contact1400_lti)")
+                    help="training sweep of contact tests (paper280_lti, contact1400_lti or "
+                         "table1_lti)")
     ap.add_argument("--families", default="families_wide",
                     help="multi-family sweep for leave-one-family-out training "
                          "(families_wide: six kinds of system; families: four)")

@@ -109,13 +109,12 @@ def test_shipped_specs_parse_and_resolve_their_scenes() -> None:
     paper's sizes hold."""
     from pathlib import Path
 
+    from rths3d.dataset.runner import _overrides
+    from rths3d.loop import scene_with
     from rths3d.scene import load_scene
 
     folder = Path(__file__).resolve().parents[1] / "scenes" / "sweeps"
     sizes = {}
-    from rths3d.dataset.runner import _overrides
-    from rths3d.loop import scene_with
-
     for path in sorted(folder.glob("*.toml")):
         spec = load_spec(path)
         tests = spec.tests()
