@@ -177,7 +177,9 @@ class TransferConfig:
     ``velocity`` adds ``comp_time``·ż to the command; ``polynomial`` extrapolates the command
     ``comp_time`` ahead with a polynomial of ``poly_order`` through the last samples.
     ``kp``, ``kv`` (N/m, N·s/m), ``timeconst`` (s), ``velocity_ff`` and ``substeps`` tune the
-    Stewart platform's leg servos.
+    Stewart platform's leg servos; the ``lti`` path with the identified model follows
+    ``timeconst`` and ``velocity_ff`` (with kv/kp) too, by exchanging the identification run's
+    first-order lags for the scene's (:func:`rths3d.transfer.actuators.servo_correction`).
     """
 
     kind: str = "ideal"

@@ -72,6 +72,62 @@ def default_transfer_function() -> tuple[list[float], list[float], str]:
     return [w * w], [1.0, 2 * z * w, w * w], "second-order 50 Hz fallback"
 
 
+def _identified_servo() -> dict | None:
+    """The leg-servo settings of the identification run behind the default G(s), or None."""
+    path = _tf_file()
+    if not path.exists():
+        return None
+    try:
+        act = json.loads(path.read_text())["platform"]
+        return {"timeconst": float(act["timeconst"]), "velocity_ff": bool(act["velocity_ff"]),
+                "kp": float(act["kp"]), "kv": float(act["kv"])}
+    except (KeyError, ValueError, TypeError):
+        return None
+
+
+def servo_correction(timeconst: float, velocity_ff: bool, kp: float, kv: float, dt: float
+                     ) -> tuple[list[float], list[float], float]:
+    """(num, den, delay shift) by which the 1-D LTI path's identified model G(s)·e^(−sT)
+    changes so that it follows the scene's leg-servo settings instead of the identification
+    run's: G·num/den, and T + shift (s; the shift is ≤ 0).
+
+    Two first-order factors of the platform's chain (see
+    :func:`rths3d.platform.model.predicted_delay`) depend on the settings: the set-point lag
+    (``timeconst`` τ, s) and, without velocity feed-forward, the servo lag 1/((kv/kp)s + 1)
+    (``kp`` N/m, ``kv`` N·s/m). The correction divides out the identification run's factors
+    and multiplies in the scene's; with the identification's settings it is 1 (and the shift
+    0). MuJoCo's set-point filter is discrete, (1 − p)/(z − p) with p = e^(−ΔT/τ), and delays
+    by ΔT/(1 − p) ≈ τ + ΔT/2: it enters as 1/(τ_e s + 1) with τ_e = ΔT/(1 − p) − ΔT/2, and
+    its extra half step ΔT/2 goes with it when the scene has no filter. A model left with a
+    feedthrough D (no filter, feed-forward on) reads D·z at the end of the held step where
+    the platform's servo follows the set-point within it: a further shift of −D·ΔT/2.
+    These shifts match the platform's 1 Hz delay to ≤ 0.1 ms (``tests/test_transfer.py``).
+    The servo's mass resonance stays the identified one: it matters only well above the test
+    frequencies (≈ 0.7 ms at 10 Hz). Without the identification file: no change.
+    """
+    ident = _identified_servo()
+    if ident is None:
+        return [1.0], [1.0], 0.0
+
+    def tau_e(tc: float) -> float:
+        return dt / -math.expm1(-dt / tc) - 0.5 * dt if tc > 0 else 0.0
+
+    def lags(tc: float, ff: bool, p: float, v: float) -> np.ndarray:
+        poly = np.array([tau_e(tc), 1.0]) if tc > 0 else np.array([1.0])
+        if not ff and v > 0:
+            poly = np.polymul(poly, [v / p, 1.0])
+        return poly
+
+    num = lags(ident["timeconst"], ident["velocity_ff"], ident["kp"], ident["kv"])
+    den = lags(float(timeconst), bool(velocity_ff), float(kp), float(kv))
+    if num.size == den.size and np.allclose(num, den, rtol=1e-12, atol=0.0):
+        return [1.0], [1.0], 0.0
+    shift = 0.0
+    if ident["timeconst"] > 0 and not timeconst > 0:
+        shift -= 0.5 * dt
+    return num.tolist(), den.tolist(), shift
+
+
 def default_transport_delay(dt: float, actuator_delay: float = 0.0) -> float:
     """Pure delay (s) the 1-D LTI path applies before the default G(s) so that it reproduces
     the identified platform at the loop's samples.
