@@ -62,6 +62,26 @@ def test_batches_are_fixed_chunks() -> None:
     assert [bid for bid, _ in b] == ["b00000", "b00001", "b00002"]
 
 
+def test_batches_never_straddle_two_transfer_settings() -> None:
+    """Each batch holds one transfer setting, at most batch_size tests, every test once."""
+    sample = {"n": 1, "transfer.delay": {"choice": [1e-3, 4e-3]},
+              "transfer.velocity_ff": {"choice": [True, False]}}
+    spec = parse_spec(spec_dict(subset=40, transfer="lti", sample=sample))
+    b = batches_of(spec)
+    assert all(len(t) <= 7 for _, t in b)
+    assert sorted(x["test_id"] for _, t in b for x in t) == \
+        sorted(x["test_id"] for x in spec.tests())
+    for _, t in b:
+        assert len({(x["params"]["transfer.delay"], x["params"]["transfer.velocity_ff"])
+                     for x in t}) == 1
+    # four settings of ~10 tests: two balanced batches each, not 7 + 3
+    assert len(b) == 8 and min(len(t) for _, t in b) >= 4
+    # the Stewart platform steps tests with different servo feed-forward together
+    stew = batches_of(parse_spec(spec_dict(subset=40, transfer="stewart", sample=sample)))
+    assert len(stew) == 6
+    assert any(len({x["params"]["transfer.velocity_ff"] for x in t}) == 2 for _, t in stew)
+
+
 @pytest.mark.parametrize("patch, field", [
     ({"subset": 0}, "subset"),
     ({"transfer": "hydraulic"}, "transfer"),

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..errors import ConfigError
 from .runner import THREADS_ENV
-from .spec import SweepSpec
+from .spec import SweepSpec, batch_group_key
 from .store import SweepStore
 
 if TYPE_CHECKING:
@@ -28,10 +28,33 @@ RowsFn = Callable[[SweepSpec, list[dict[str, Any]], str | None], list[dict[str, 
 
 
 def batches_of(spec: SweepSpec) -> list[tuple[str, list[dict[str, Any]]]]:
-    """The sweep's tests cut into its fixed batches: ``[(batch_id, tests), …]``."""
+    """The sweep's tests cut into its fixed batches: ``[(batch_id, tests), …]``.
+
+    The tests come ordered by transfer setting; each run of tests that the loop can step
+    together (:func:`~rths3d.dataset.spec.batch_group_key`) is cut into the fewest batches
+    of at most ``batch_size``, of nearly equal size, so that no batch straddles two settings
+    (a straddling batch runs as two smaller ones, which costs a step overhead each).
+    """
     tests = spec.tests()
     b = spec.batch_size
-    return [(f"b{i // b:05d}", tests[i:i + b]) for i in range(0, len(tests), b)]
+    runs: list[list[dict[str, Any]]] = []
+    last = None
+    for t in tests:
+        key = batch_group_key(t)
+        if key != last:
+            runs.append([])
+            last = key
+        runs[-1].append(t)
+    chunks: list[list[dict[str, Any]]] = []
+    for run in runs:
+        n = -(-len(run) // b)
+        size, extra = divmod(len(run), n)
+        i = 0
+        for j in range(n):
+            m = size + (1 if j < extra else 0)
+            chunks.append(run[i:i + m])
+            i += m
+    return [(f"b{i:05d}", c) for i, c in enumerate(chunks)]
 
 
 def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = None,

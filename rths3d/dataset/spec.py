@@ -179,6 +179,21 @@ def _group_sort_key(params: Mapping[str, Any]) -> str:
     return json.dumps(items, default=str)
 
 
+# Stewart leg-servo settings that per-test platform models absorb (see loop._group_key):
+# only the actuator delay and whether the set-point has a lag change the model's structure
+_STEWART_PER_TEST = ("transfer.kp", "transfer.kv", "transfer.velocity_ff")
+
+
+def batch_group_key(test: Mapping[str, Any]) -> str:
+    """Tests with equal keys can be stepped together (the loop's batch grouping, on the
+    sweep's parameters): family, and the transfer/sensor/safety/time-grid settings."""
+    params = test["params"]
+    if test.get("transfer") == "stewart":
+        params = {k: (float(v) > 0 if k == "transfer.timeconst" else v)
+                  for k, v in params.items() if k not in _STEWART_PER_TEST}
+    return f"{test['family']}|{_group_sort_key(params)}"
+
+
 # ---------------------------------------------------------------------------- parsing
 def _require(d: Mapping[str, Any], key: str, where: str, kind: type | tuple) -> Any:
     if key not in d:

@@ -2,7 +2,7 @@
 
 Layout under the output folder ``DIR``::
 
-    DIR/manifest.json          spec name, digest, batch size, number of tests
+    DIR/manifest.json          spec name, digest, batch size, batching scheme, number of tests
     DIR/parts/<batch>.parquet  rows of one finished batch (written atomically)
     DIR/records/<test>.parquet per-test records (optional, ``keep_records``)
     DIR/<sweep name>.parquet   the merged table (written atomically when all parts exist)
@@ -40,6 +40,11 @@ def _atomic_write_table(frame, path: Path, meta: dict[str, Any] | None = None) -
     os.replace(tmp, path)
 
 
+BATCHING = "group-aligned/1"
+"""How tests are cut into batches (:func:`~rths3d.dataset.execute.batches_of`); a folder
+written with another scheme holds other batch ids and cannot be resumed."""
+
+
 class SweepStore:
     """The output folder of one sweep (see module docstring)."""
 
@@ -59,10 +64,10 @@ class SweepStore:
         self.parts.mkdir(parents=True, exist_ok=True)
         man = self.root / "manifest.json"
         want = {"name": self.name, "digest": self.digest, "batch_size": self.batch_size,
-                "n_tests": self.n_tests}
+                "batching": BATCHING, "n_tests": self.n_tests}
         if man.exists():
             have = json.loads(man.read_text())
-            for key in ("digest", "batch_size"):
+            for key in ("digest", "batch_size", "batching"):
                 if have.get(key) != want[key]:
                     raise ConfigError(
                         f"out ({self.root}) {key}", have.get(key),
