@@ -32,7 +32,7 @@ import numpy as np
 
 from .errors import ConfigError, SafetyStop
 from .record import DOFS, Record, RecordBuffer
-from .scene import Scene, apply_overrides, scene_from_dict
+from .scene import STEWART_PER_TEST_SERVO, Scene, apply_overrides, scene_from_dict
 
 if TYPE_CHECKING:
     from .numerical import NumericalFactory
@@ -322,6 +322,7 @@ def _run_group(scenes: list[Scene], *, reference: bool | str, nthread: int,
     g_prev = np.full((K, nd), np.inf)
     g_base = np.zeros((K, nd))
     g_cnt = np.zeros((K, nd), dtype=int)
+    f_abs = np.zeros((K, nd))  # |F'_m| of the step, for the FTS range and the growth watch
     zlim_min = float(lim_z.min())
     vlim_min = float(lim_v.min())
     flim_min = float(lim_f.min())
@@ -373,9 +374,10 @@ def _run_group(scenes: list[Scene], *, reference: bool | str, nthread: int,
         if stewart:
             h_pc[n + 1] = transfer.pose_cmd
             h_pq[n + 1] = transfer.plate_qpos
-        if not (np.abs(f).max() <= flim_min):
+        np.abs(f, out=f_abs)
+        if not (f_abs.max() <= flim_min):
             # only the active tests over the range (a stopped test may keep diverging)
-            for k in np.flatnonzero(active & (np.abs(f) > lim_f).any(axis=1)):
+            for k in np.flatnonzero(active & (f_abs > lim_f).any(axis=1)):
                 for j, d in enumerate(base.dofs):
                     if abs(f[k, j]) > lim_f[j]:
                         what = "torque" if is_rot[j] else "force"
@@ -386,7 +388,7 @@ def _run_group(scenes: list[Scene], *, reference: bool | str, nthread: int,
             if not active.any():
                 break
         if gw:
-            np.maximum(g_pk, np.abs(f), out=g_pk)
+            np.maximum(g_pk, f_abs, out=g_pk)
             if (n + 1) % g_win == 0:
                 grew = (g_pk > g_fac * g_prev) & (g_pk > g_floor)
                 g_base[grew & (g_cnt == 0)] = g_prev[grew & (g_cnt == 0)]
@@ -598,7 +600,8 @@ def _group_key(s: Scene) -> tuple:
     # has a lag change the model's structure.
     tr = s.transfer
     if tr.kind == "stewart":
-        tr = replace(tr, kp=0.0, kv=0.0, velocity_ff=False, timeconst=float(tr.timeconst > 0))
+        tr = replace(tr, timeconst=float(tr.timeconst > 0),
+                     **dict.fromkeys(STEWART_PER_TEST_SERVO, 0.0))
         exp = (s.experiment.kind, s.experiment.substeps)
     elif s.experiment.kind == "multidof":
         exp = s.experiment

@@ -165,6 +165,11 @@ class ExperimentConfig:
     substeps: int = 4
 
 
+STEWART_PER_TEST_SERVO = ("kp", "kv", "velocity_ff")
+"""Leg-servo settings that Stewart tests stepped together may vary test by test (per-test
+platform models of one structure); ``timeconst`` may too, as long as all are > 0 or all 0."""
+
+
 @dataclass(frozen=True)
 class TransferConfig:
     """Transfer system between command z and achieved z'.
@@ -179,7 +184,7 @@ class TransferConfig:
     ``kp``, ``kv`` (N/m, N·s/m), ``timeconst`` (s), ``velocity_ff`` and ``substeps`` tune the
     Stewart platform's leg servos; the ``lti`` path with the identified model follows
     ``timeconst`` and ``velocity_ff`` (with kv/kp) too, by exchanging the identification run's
-    first-order lags for the scene's (:func:`rths3d.transfer.actuators.servo_correction`).
+    first-order lags for the scene's (:func:`rths3d.transfer.actuators.follow_servo_settings`).
     """
 
     kind: str = "ideal"

@@ -10,6 +10,7 @@ write to the table, so a Dask cluster needs no shared file system (except for
 
 from __future__ import annotations
 
+import itertools
 import os
 import time
 from collections.abc import Callable
@@ -35,25 +36,14 @@ def batches_of(spec: SweepSpec) -> list[tuple[str, list[dict[str, Any]]]]:
     of at most ``batch_size``, of nearly equal size, so that no batch straddles two settings
     (a straddling batch runs as two smaller ones, which costs a step overhead each).
     """
-    tests = spec.tests()
     b = spec.batch_size
-    runs: list[list[dict[str, Any]]] = []
-    last = None
-    for t in tests:
-        key = batch_group_key(t)
-        if key != last:
-            runs.append([])
-            last = key
-        runs[-1].append(t)
     chunks: list[list[dict[str, Any]]] = []
-    for run in runs:
+    for _, group in itertools.groupby(spec.tests(), key=batch_group_key):
+        run = list(group)
         n = -(-len(run) // b)
-        size, extra = divmod(len(run), n)
-        i = 0
-        for j in range(n):
-            m = size + (1 if j < extra else 0)
-            chunks.append(run[i:i + m])
-            i += m
+        size, extra = divmod(len(run), n)  # the first `extra` batches take one test more
+        start = [j * size + min(j, extra) for j in range(n + 1)]
+        chunks.extend(run[start[j]:start[j + 1]] for j in range(n))
     return [(f"b{i:05d}", c) for i, c in enumerate(chunks)]
 
 

@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError
+from ..scene import STEWART_PER_TEST_SERVO
 
 TRANSFERS = ("ideal", "lti", "stewart")
 
@@ -179,14 +180,13 @@ def _group_sort_key(params: Mapping[str, Any]) -> str:
     return json.dumps(items, default=str)
 
 
-# Stewart leg-servo settings that per-test platform models absorb (see loop._group_key):
-# only the actuator delay and whether the set-point has a lag change the model's structure
-_STEWART_PER_TEST = ("transfer.kp", "transfer.kv", "transfer.velocity_ff")
+_STEWART_PER_TEST = tuple(f"transfer.{k}" for k in STEWART_PER_TEST_SERVO)
 
 
 def batch_group_key(test: Mapping[str, Any]) -> str:
     """Tests with equal keys can be stepped together (the loop's batch grouping, on the
-    sweep's parameters): family, and the transfer/sensor/safety/time-grid settings."""
+    sweep's parameters): family, and the transfer/sensor/safety/time-grid settings, except
+    the Stewart servo settings that per-test platform models absorb."""
     params = test["params"]
     if test.get("transfer") == "stewart":
         params = {k: (float(v) > 0 if k == "transfer.timeconst" else v)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -57,15 +58,27 @@ def _tf_file() -> Path:
     return Path(__file__).resolve().parents[2] / "assets" / "platform_heave_tf.json"
 
 
+def _tf_data() -> dict | None:
+    """The identification file's contents, or None when it is missing or unreadable."""
+    path = _tf_file()
+    if not path.exists():
+        return None
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
 def default_transfer_function() -> tuple[list[float], list[float], str]:
     """(num, den, source) of the actuator model: ``assets/platform_heave_tf.json`` when the
     platform's identification wrote it, else the 50 Hz second-order fallback. The file's
     transport delay is in :func:`default_transport_delay`."""
-    path = _tf_file()
-    if path.exists():
+    data = _tf_data()
+    if data is not None:
         try:
-            data = json.loads(path.read_text())
-            return list(map(float, data["num"])), list(map(float, data["den"])), str(path.name)
+            return (list(map(float, data["num"])), list(map(float, data["den"])),
+                    _tf_file().name)
         except (KeyError, ValueError, TypeError):
             pass
     w, z = DEFAULT_TF_OMEGA, DEFAULT_TF_ZETA
@@ -74,40 +87,39 @@ def default_transfer_function() -> tuple[list[float], list[float], str]:
 
 def _identified_servo() -> dict | None:
     """The leg-servo settings of the identification run behind the default G(s), or None."""
-    path = _tf_file()
-    if not path.exists():
-        return None
+    data = _tf_data()
     try:
-        act = json.loads(path.read_text())["platform"]
+        act = data["platform"]  # type: ignore[index]
         return {"timeconst": float(act["timeconst"]), "velocity_ff": bool(act["velocity_ff"]),
                 "kp": float(act["kp"]), "kv": float(act["kv"])}
     except (KeyError, ValueError, TypeError):
         return None
 
 
-def servo_correction(timeconst: float, velocity_ff: bool, kp: float, kv: float, dt: float
-                     ) -> tuple[list[float], list[float], float]:
-    """(num, den, delay shift) by which the 1-D LTI path's identified model G(s)·e^(−sT)
-    changes so that it follows the scene's leg-servo settings instead of the identification
-    run's: G·num/den, and T + shift (s; the shift is ≤ 0).
+def follow_servo_settings(num: Sequence[float], den: Sequence[float], delay: float,
+                          timeconst: float, velocity_ff: bool, kp: float, kv: float,
+                          dt: float) -> tuple[list[float], list[float], float]:
+    """The identified model G(s) = num/den after a pure ``delay`` (s), changed so that the 1-D
+    LTI path follows the scene's leg-servo settings instead of the identification run's:
+    returns (num, den, delay).
 
     Two first-order factors of the platform's chain (see
     :func:`rths3d.platform.model.predicted_delay`) depend on the settings: the set-point lag
     (``timeconst`` τ, s) and, without velocity feed-forward, the servo lag 1/((kv/kp)s + 1)
-    (``kp`` N/m, ``kv`` N·s/m). The correction divides out the identification run's factors
-    and multiplies in the scene's; with the identification's settings it is 1 (and the shift
-    0). MuJoCo's set-point filter is discrete, (1 − p)/(z − p) with p = e^(−ΔT/τ), and delays
-    by ΔT/(1 − p) ≈ τ + ΔT/2: it enters as 1/(τ_e s + 1) with τ_e = ΔT/(1 − p) − ΔT/2, and
-    its extra half step ΔT/2 goes with it when the scene has no filter. A model left with a
-    feedthrough D (no filter, feed-forward on) reads D·z at the end of the held step where
-    the platform's servo follows the set-point within it: a further shift of −D·ΔT/2.
-    These shifts match the platform's 1 Hz delay to ≤ 0.1 ms (``tests/test_transfer.py``).
-    The servo's mass resonance stays the identified one: it matters only well above the test
+    (``kp`` N/m, ``kv`` N·s/m). The identification run's factors are divided out and the
+    scene's multiplied in; with the identification's settings nothing changes. MuJoCo's
+    set-point filter is discrete, (1 − p)/(z − p) with p = e^(−ΔT/τ), and delays by
+    ΔT/(1 − p) ≈ τ + ΔT/2: it enters as 1/(τ_e s + 1) with τ_e = ΔT/(1 − p) − ΔT/2, and its
+    extra half step ΔT/2 leaves the delay when the scene has no filter. A model left with a
+    feedthrough D (no filter, feed-forward on) reads D·z at the end of the held step where the
+    platform's servo follows the set-point within it: the delay shortens by a further D·ΔT/2.
+    This matches the platform's 1 Hz delay to ≤ 0.1 ms (``tests/test_transfer.py``). The
+    servo's mass resonance stays the identified one: it matters only well above the test
     frequencies (≈ 0.7 ms at 10 Hz). Without the identification file: no change.
     """
     ident = _identified_servo()
     if ident is None:
-        return [1.0], [1.0], 0.0
+        return list(num), list(den), delay
 
     def tau_e(tc: float) -> float:
         return dt / -math.expm1(-dt / tc) - 0.5 * dt if tc > 0 else 0.0
@@ -118,14 +130,16 @@ def servo_correction(timeconst: float, velocity_ff: bool, kp: float, kv: float, 
             poly = np.polymul(poly, [v / p, 1.0])
         return poly
 
-    num = lags(ident["timeconst"], ident["velocity_ff"], ident["kp"], ident["kv"])
-    den = lags(float(timeconst), bool(velocity_ff), float(kp), float(kv))
-    if num.size == den.size and np.allclose(num, den, rtol=1e-12, atol=0.0):
-        return [1.0], [1.0], 0.0
-    shift = 0.0
+    c_num = lags(ident["timeconst"], ident["velocity_ff"], ident["kp"], ident["kv"])
+    c_den = lags(float(timeconst), bool(velocity_ff), float(kp), float(kv))
+    if c_num.size == c_den.size and np.allclose(c_num, c_den, rtol=1e-12, atol=0.0):
+        return list(num), list(den), delay
+    num2, den2 = np.polymul(num, c_num), np.polymul(den, c_den)
     if ident["timeconst"] > 0 and not timeconst > 0:
-        shift -= 0.5 * dt
-    return num.tolist(), den.tolist(), shift
+        delay -= 0.5 * dt
+    if num2.size == den2.size:
+        delay -= 0.5 * dt * num2[0] / den2[0]
+    return num2.tolist(), den2.tolist(), max(0.0, delay)
 
 
 def default_transport_delay(dt: float, actuator_delay: float = 0.0) -> float:
@@ -142,10 +156,9 @@ def default_transport_delay(dt: float, actuator_delay: float = 0.0) -> float:
     replaces it, so that ``transfer.delay`` means the actuator transport delay for both the
     ``lti`` and the ``stewart`` transfer systems. Without the file: ``actuator_delay``.
     """
-    path = _tf_file()
-    if path.exists():
+    data = _tf_data()
+    if data is not None:
         try:
-            data = json.loads(path.read_text())
             T = float(data["delay"])
             t_act = float(data.get("platform", {}).get("delay", 0.0))
         except (KeyError, ValueError, TypeError, AttributeError):

@@ -30,7 +30,7 @@ from .actuators import (
     SensorModel,
     default_transfer_function,
     default_transport_delay,
-    servo_correction,
+    follow_servo_settings,
 )
 
 
@@ -260,14 +260,8 @@ def build_transfer(scene: Scene, K: int, experiments: Sequence[ExperimentConfig]
             num, den = default_transfer_function()[:2]
             delay = default_transport_delay(scene.dt, tr.delay)
             # and with the scene's leg-servo lags in place of the identification run's
-            c_num, c_den, shift = servo_correction(tr.timeconst, tr.velocity_ff, tr.kp, tr.kv,
-                                                   scene.dt)
-            if shift or c_num != c_den:
-                num = np.polymul(num, c_num).tolist()
-                den = np.polymul(den, c_den).tolist()
-                if len(num) == len(den):
-                    shift -= 0.5 * scene.dt * num[0] / den[0]  # feedthrough: see docstring
-                delay = max(0.0, delay + shift)
+            num, den, delay = follow_servo_settings(num, den, delay, tr.timeconst,
+                                                    tr.velocity_ff, tr.kp, tr.kv, scene.dt)
         act = lti_act = LTIActuator(K, n_if, num, den, scene.dt)
         if delay > 0:
             dline = delay_line = DelayLine(K, n_if, delay, scene.dt)
