@@ -9,7 +9,8 @@
 
 Usage: ``python examples/41_paper_protocol.py [--out DIR] [--workers N] [--quick]
 [--transform linear|log] [--contact paper280_lti|contact1400_lti|table1_lti]
-[--families families_wide|families] [--splits N] [--no-bypass]``.
+[--families families_large|families_wide|families] [--splits N] [--topologies 10x10;20x20]
+[--no-bypass]``.
 Sweeps are resumable: re-running reuses finished tests in DIR.
 """
 
@@ -47,12 +48,18 @@ def main() -> None:
                          "table1_lti)")
     ap.add_argument("--families", default="families_wide",
                     help="multi-family sweep for leave-one-family-out training "
-                         "(families_wide: six kinds of system; families: four)")
+                         "(families_large: six kinds, 4240 tests, servo settings drawn; "
+                         "families_wide: six kinds, 1720 tests; families: four)")
+    ap.add_argument("--topologies", default=None,
+                    help="candidate hidden layers, e.g. '10x10;20x20' (default: the "
+                         "estimator's 2;5;10;20;5x5;10x10); larger nets for the full grid")
     ap.add_argument("--splits", type=int, default=1,
                     help="train on N 70/15/15 splits (seeds 0..N-1) and pool the ρ figures")
     ap.add_argument("--no-bypass", action="store_true",
                     help="the paper's plain FNN (no linear input-output bypass)")
     args = ap.parse_args()
+    topologies = (None if not args.topologies else
+                  tuple(tuple(int(w) for w in t.split("x")) for t in args.topologies.split(";")))
 
     from rths3d.ann.plots import save_figures
     from rths3d.ann.protocol import PAPER_TABLE4, reproduce, rows_to_markdown
@@ -66,7 +73,8 @@ def main() -> None:
 
     rows = reproduce(lti, stewart, linear, families, left_out="linear",
                      n_trainings=args.trainings, seed=0, transform=args.transform,
-                     split_seeds=tuple(range(args.splits)), bypass=not args.no_bypass)
+                     split_seeds=tuple(range(args.splits)), bypass=not args.no_bypass,
+                     topologies=topologies)
     table = rows_to_markdown(rows)
     print(table)
     print("\nThe paper's Table 4:")
@@ -74,7 +82,8 @@ def main() -> None:
         print(f"  {r['system']}, set {r['features']}: ρ train {r['r_train']}, "
               f"ρ test {r['r_test']}, MSE {r['mse']}")
     tag = (f"{args.contact}_{args.families}_{args.transform}" + ("_plain" if args.no_bypass else "")
-           + (f"_{args.splits}splits" if args.splits > 1 else ""))
+           + (f"_{args.splits}splits" if args.splits > 1 else "")
+           + (f"_{args.topologies.replace(';', '-')}" if args.topologies else ""))
     (out / f"table4_{tag}.md").write_text(table + "\n")
     (out / f"table4_{tag}.json").write_text(json.dumps([r.as_dict() for r in rows], indent=1))
 
@@ -83,8 +92,8 @@ def main() -> None:
     from rths3d.dataset import training_data
 
     X, y, _ = training_data(lti, 2)
-    model = FidelityANN(n_trainings=args.trainings, seed=0, transform=args.transform,
-                        bypass=not args.no_bypass).fit(X, y)
+    model = FidelityANN(topologies=topologies, n_trainings=args.trainings, seed=0,
+                        transform=args.transform, bypass=not args.no_bypass).fit(X, y)
     mean, std = model.predict(X, return_std=True, warn=False)
     tr, te = model.indices["train"], model.indices["test"]
     save_figures(out / "fig6_7_contact_lti_set2.png",

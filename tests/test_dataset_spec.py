@@ -145,8 +145,29 @@ def test_shipped_specs_parse_and_resolve_their_scenes() -> None:
         sizes[spec.name] = len(tests)
     assert sizes["table1_lti"] == 13230
     assert sizes["families_wide"] == 1720
+    assert sizes["families_large"] == 4240
     assert sizes["paper280_lti"] == sizes["paper280_stewart"] == 280
     assert sizes["table2_linear"] == 108
+
+
+def test_families_large_draws_every_servo_setting_in_every_family() -> None:
+    """families_large: each of its six families sees all 6 leg-servo settings and 10 delays."""
+    from pathlib import Path
+
+    spec = load_spec(Path(__file__).resolve().parents[1] / "scenes" / "sweeps"
+                     / "families_large.toml")
+    seen: dict[str, set] = {}
+    delays: dict[str, set] = {}
+    for t in spec.tests():
+        p = t["params"]
+        seen.setdefault(t["family"], set()).add((p["transfer.timeconst"],
+                                                 p["transfer.velocity_ff"]))
+        delays.setdefault(t["family"], set()).add((p["transfer.delay"],
+                                                   p["transfer.compensation"]))
+    assert sorted(seen) == ["contact", "contact_force", "kelvin", "linear", "multidof",
+                            "support"]
+    assert all(len(v) == 6 for v in seen.values())
+    assert all(len(v) == 10 for v in delays.values())
 
 
 def test_paper280_lti_and_stewart_share_dynamics() -> None:
