@@ -67,6 +67,14 @@ class MujocoSpecimen:
         self._widx = np.array([("x", "y", "z", "rx", "ry", "rz").index(d) for d in self.dofs])
         self.f = np.zeros((self.K, self.n_if))
         self.wrench = np.zeros((self.K, 6))
+        self._world = np.zeros((self.K, 6))
+        # advance() works in these buffers; the mount columns are a slice (views, no copies)
+        # whenever the interface DOFs come in the mount joints' order, as in every shipped scene
+        n = self.n_if
+        self._slice = (slice(0, n) if np.array_equal(self._col, np.arange(n)) else None)
+        self._dz = np.zeros((self.K, n))
+        self._tgt = np.zeros((self.K, n))
+        self._acc = np.zeros((self.K, n))
         self.reset()
 
     def reset(self) -> None:
@@ -78,11 +86,12 @@ class MujocoSpecimen:
         self.f[:] = 0.0
 
     def _world_wrench(self) -> np.ndarray:
+        """Sensor wrench in world axes (K, 6) in a reused buffer: [F (N), M (N·m)]."""
         R = self._xmat[:, self._site].reshape(self.K, 3, 3)
-        s = self._sens
-        fw = np.einsum("kij,kj->ki", R, s[:, 0:3])
-        tw = np.einsum("kij,kj->ki", R, s[:, 3:6])
-        return np.concatenate([fw, tw], axis=1)
+        s, w = self._sens, self._world
+        np.einsum("kij,kj->ki", R, s[:, 0:3], out=w[:, 0:3])
+        np.einsum("kij,kj->ki", R, s[:, 3:6], out=w[:, 3:6])
+        return w
 
     def get_state(self) -> tuple[np.ndarray, ...]:
         """Copy of (qpos, qvel, time)."""
@@ -100,20 +109,26 @@ class MujocoSpecimen:
     def advance(self, z0: np.ndarray, z1: np.ndarray) -> np.ndarray:
         """Drive the mount from ``z0`` to ``z1`` (K, n_if) linearly over ΔT; return F'_m."""
         ns, h = self.substeps, self.h
-        cols = self._col
-        inertia = MOUNT_ARMATURE
+        cols = self._slice if self._slice is not None else self._col
+        dz, tgt, acc = self._dz, self._tgt, self._acc
+        np.subtract(z1, z0, out=dz)
         for j in range(ns):
-            target = z0 + (z1 - z0) * ((j + 1) / ns)
-            q = self._qpos[:, cols]
-            v = self._qvel[:, cols]
-            a = ((target - q) / h - v) / h
-            self._qfrc[:, cols] = inertia * a
+            # set-point on the straight path: z0 + (z1 − z0)·(j+1)/ns
+            np.multiply(dz, (j + 1) / ns, out=tgt)
+            tgt += z0
+            # a = ((q* − q)/h − q̇)/h lands semi-implicit Euler on the set-point
+            np.subtract(tgt, self._qpos[:, cols], out=acc)
+            acc /= h
+            acc -= self._qvel[:, cols]
+            acc /= h
+            acc *= MOUNT_ARMATURE
+            self._qfrc[:, cols] = acc
             if j == ns - 1:
                 self.batch.step(stage=mujoco.mjtStage.mjSTAGE_ACC)
             else:
                 self.batch.step()
-        self.wrench[:] = self._world_wrench() - self.preload
-        self.f[:] = self.wrench[:, self._widx]
+        np.subtract(self._world_wrench(), self.preload, out=self.wrench)
+        np.take(self.wrench, self._widx, axis=1, out=self.f)
         return self.f
 
 
