@@ -46,7 +46,7 @@ def main() -> None:
     ap.add_argument("--contact", default="paper280_lti",
                     help="training sweep of contact tests (paper280_lti, contact1400_lti or "
                          "table1_lti)")
-    ap.add_argument("--families", default="families_wide",
+    ap.add_argument("--families", default="families_large",
                     help="multi-family sweep for leave-one-family-out training "
                          "(families_large: six kinds, 4240 tests, servo settings drawn; "
                          "families_wide: six kinds, 1720 tests; families: four)")
