@@ -58,11 +58,12 @@ def main() -> None:
     ap.add_argument("--no-bypass", action="store_true",
                     help="the paper's plain FNN (no linear input-output bypass)")
     args = ap.parse_args()
-    topologies = (None if not args.topologies else
-                  tuple(tuple(int(w) for w in t.split("x")) for t in args.topologies.split(";")))
 
+    from rths3d.ann import FidelityANN, parse_topologies
     from rths3d.ann.plots import save_figures
     from rths3d.ann.protocol import PAPER_TABLE4, reproduce, rows_to_markdown
+
+    topologies = parse_topologies(args.topologies)  # before the sweeps: fail fast
 
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
@@ -88,12 +89,14 @@ def main() -> None:
     (out / f"table4_{tag}.json").write_text(json.dumps([r.as_dict() for r in rows], indent=1))
 
     # regression + prediction plots like the paper's Figs. 6-9 (set-2 network)
-    from rths3d.ann import FidelityANN
     from rths3d.dataset import training_data
 
+    def net() -> FidelityANN:  # the protocol's settings, split seed 0
+        return FidelityANN(topologies=topologies, n_trainings=args.trainings, seed=0,
+                           transform=args.transform, bypass=not args.no_bypass)
+
     X, y, _ = training_data(lti, 2)
-    model = FidelityANN(topologies=topologies, n_trainings=args.trainings, seed=0,
-                        transform=args.transform, bypass=not args.no_bypass).fit(X, y)
+    model = net().fit(X, y)
     mean, std = model.predict(X, return_std=True, warn=False)
     tr, te = model.indices["train"], model.indices["test"]
     save_figures(out / "fig6_7_contact_lti_set2.png",
@@ -109,8 +112,7 @@ def main() -> None:
                  spread={"linear Table 2": sl}, title="contact-trained net on the linear system")
     # the paper's cure: a net trained on the other families, on the never-seen family
     Xf, yf, _ = training_data(families, 2, exclude=["linear"])
-    fam_model = FidelityANN(topologies=topologies, n_trainings=args.trainings, seed=0,
-                            transform=args.transform, bypass=not args.no_bypass).fit(Xf, yf)
+    fam_model = net().fit(Xf, yf)
     Xo, yo, _ = training_data(families, 2, families=["linear"])
     mo, so = fam_model.predict(Xo, return_std=True, warn=False)
     save_figures(out / "fig10_left_out_linear_set2.png", {"left-out linear family": (yo, mo)},
@@ -120,4 +122,9 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    from rths3d.errors import ConfigError
+
+    try:
+        main()
+    except ConfigError as exc:  # a user mistake (flag, spec, output folder): no traceback
+        raise SystemExit(f"error: {exc}") from None

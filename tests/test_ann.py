@@ -303,3 +303,15 @@ def test_lm_survives_singular_normal_matrix() -> None:
     r = train_lm(topo, xn[:90], tn[:90], xn[90:], tn[90:], w0=w0,
                  config=LMConfig(mu=1e-300, mu_dec=1e-10))
     assert np.isfinite(r.train_mse) and r.epochs >= 1
+
+
+def test_parse_topologies_reads_both_spellings_and_names_the_field() -> None:
+    """'10x10;20' and '10,10;20' give the same candidates; bad text names the option."""
+    from rths3d.ann import parse_topologies
+
+    assert parse_topologies("10x10;20") == parse_topologies("10,10;20") == ((10, 10), (20,))
+    assert parse_topologies("") is None and parse_topologies(None) is None
+    with pytest.raises(ConfigError, match="--topologies"):
+        parse_topologies("10xa")
+    with pytest.raises(ConfigError, match="width must be >= 1"):
+        parse_topologies("5;0")

@@ -7,7 +7,13 @@ baseline), :mod:`.estimator` (topology search + ensemble, save/load), :mod:`.sen
 :mod:`.plots`, :mod:`.scores`.
 """
 
-from .estimator import DEFAULT_TOPOLOGIES, ExtrapolationWarning, FidelityANN, TopologyScore
+from .estimator import (
+    DEFAULT_TOPOLOGIES,
+    ExtrapolationWarning,
+    FidelityANN,
+    TopologyScore,
+    parse_topologies,
+)
 from .network import Topology
 from .normalize import MinMax, split_indices
 from .scores import mse, pearson_rho
@@ -16,7 +22,8 @@ from .training import AdamConfig, LMConfig, TrainResult, time_to_val_mse, train_
 
 __all__ = [
     "DEFAULT_TOPOLOGIES", "AdamConfig", "ExtrapolationWarning", "FidelityANN", "LMConfig",
-    "MinMax", "Topology", "TopologyScore", "TrainResult", "mse", "pearson_rho", "rank",
+    "MinMax", "Topology", "TopologyScore", "TrainResult", "mse", "parse_topologies",
+    "pearson_rho", "rank",
     "sensitivity_mean", "sensitivity_permutation", "split_indices", "time_to_val_mse",
     "train_adam", "train_lm",
 ]

@@ -36,6 +36,24 @@ FORMAT = "rths3d-fidelity-ann/1"
 DEFAULT_TOPOLOGIES: tuple[tuple[int, ...], ...] = ((2,), (5,), (10,), (20,), (5, 5), (10, 10))
 
 
+
+def parse_topologies(text: str | None, field: str = "--topologies"
+                     ) -> tuple[tuple[int, ...], ...] | None:
+    """Candidate hidden layers from text: ``'5;10;5,5'`` or ``'10x10;20x20'`` (``;`` between
+    candidates, ``,`` or ``x`` between layers). Empty or None: None (the default search)."""
+    if not text:
+        return None
+    out = []
+    for part in text.split(";"):
+        try:
+            widths = tuple(int(w) for w in part.replace("x", ",").split(",") if w.strip())
+        except ValueError as exc:
+            raise ConfigError(field, text, "write e.g. '5;10;5,5'") from exc
+        if not widths or min(widths) < 1:
+            raise ConfigError(field, text, "every width must be >= 1")
+        out.append(widths)
+    return tuple(out)
+
 TRANSFORMS = ("linear", "log")
 
 

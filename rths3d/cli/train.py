@@ -10,23 +10,6 @@ import typer
 from ._app import app
 
 
-def _parse_topologies(text: str | None) -> tuple[tuple[int, ...], ...] | None:
-    from ..errors import ConfigError
-
-    if not text:
-        return None
-    out = []
-    for part in text.split(";"):
-        try:
-            widths = tuple(int(w) for w in part.replace("x", ",").split(",") if w.strip())
-        except ValueError as exc:
-            raise ConfigError("--topologies", text, "write e.g. '5;10;5,5'") from exc
-        if not widths or min(widths) < 1:
-            raise ConfigError("--topologies", text, "every width must be >= 1")
-        out.append(widths)
-    return tuple(out)
-
-
 def _med_worst(values: list[float]) -> dict[str, float]:
     import numpy as np
 
@@ -61,7 +44,7 @@ def train(
 
     Prints ρ (paper eq. 15) on the training, validation and test sets and the MSE.
     """
-    from ..ann import FidelityANN
+    from ..ann import FidelityANN, parse_topologies
     from ..dataset.store import read_table
     from ..dataset.table import training_data
     from ..errors import ConfigError
@@ -70,7 +53,7 @@ def train(
     X, y, _rows = training_data(frame, features, target, family or None, exclude or None)
     if len(y) < 10:
         raise ConfigError("table", f"{len(y)} usable rows", "need at least 10 finished tests")
-    model = FidelityANN(topologies=_parse_topologies(topologies), n_trainings=trainings,
+    model = FidelityANN(topologies=parse_topologies(topologies), n_trainings=trainings,
                         seed=seed, transform=transform, bypass=bypass)
     model.target_name = target
     model.fit(X, y, progress=not as_json)

@@ -55,7 +55,7 @@ class MujocoSpecimen:
             self.batch.set_models([lookup[x] for x in xmls])
         order = [d for d in _ORDER if d in self.dofs]
         # column of each interface DOF among the mount joints (qpos/qvel/qfrc indices)
-        self._col = np.array([order.index(d) for d in self.dofs])
+        col = np.array([order.index(d) for d in self.dofs])
         self._qpos = self.batch.bind("qpos")
         self._qvel = self.batch.bind("qvel")
         self._qfrc = self.batch.bind("qfrc_applied")
@@ -71,7 +71,7 @@ class MujocoSpecimen:
         # advance() works in these buffers; the mount columns are a slice (views, no copies)
         # whenever the interface DOFs come in the mount joints' order, as in every shipped scene
         n = self.n_if
-        self._slice = (slice(0, n) if np.array_equal(self._col, np.arange(n)) else None)
+        self._cols = slice(0, n) if np.array_equal(col, np.arange(n)) else col
         self._dz = np.zeros((self.K, n))
         self._tgt = np.zeros((self.K, n))
         self._acc = np.zeros((self.K, n))
@@ -109,7 +109,7 @@ class MujocoSpecimen:
     def advance(self, z0: np.ndarray, z1: np.ndarray) -> np.ndarray:
         """Drive the mount from ``z0`` to ``z1`` (K, n_if) linearly over ΔT; return F'_m."""
         ns, h = self.substeps, self.h
-        cols = self._slice if self._slice is not None else self._col
+        cols = self._cols
         dz, tgt, acc = self._dz, self._tgt, self._acc
         np.subtract(z1, z0, out=dz)
         for j in range(ns):
