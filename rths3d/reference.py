@@ -3,13 +3,14 @@ compatibility and equilibrium satisfied exactly — no transfer dynamics, no cou
 
 Method: **interface iteration within each step** (a strongly coupled partitioned scheme).
 For each step t_n → t_{n+1} the state of both substructures is saved; a guess of z_{n+1}
-drives the experimental part's mount linearly from z_n to z_{n+1}, its restoring force
-F_{n+1} at t_{n+1} goes into the numerical substructure, which is stepped with the interface
-force interpolated linearly from F_n to F_{n+1} (exact discretisation of the state space with
-first-order hold, implicit in F_{n+1}); both states are reset and the step repeated with the
-new z_{n+1} until |Δz| < ``tol`` (or, for the MuJoCo part, until the iteration stagnates at
-its contact solver's noise, ~1e-9 m). At convergence the mount displacement equals the numerical
-interface displacement and the force is the same on both sides at every sample.
+(quadratic extrapolation from z_n, z_{n−1}, z_{n−2}) drives the experimental part's mount
+linearly from z_n to z_{n+1}, its restoring force F_{n+1} at t_{n+1} goes into the numerical
+substructure, which is stepped with the interface force interpolated linearly from F_n to
+F_{n+1} (exact discretisation of the state space with first-order hold, implicit in F_{n+1});
+both states are reset and the step repeated with the new z_{n+1} until |Δz| < ``tol`` (or,
+for the MuJoCo part, until the iteration stagnates at its contact solver's noise, ~1e-9 m).
+At convergence the mount displacement equals the numerical interface displacement and the
+force is the same on both sides at every sample.
 
 The 1-D parts use the numpy specimen with classical Runge–Kutta substeps; the multi-DOF part
 uses the MuJoCo specimen (its own integrator) reset to the saved state at every iteration.
@@ -79,6 +80,7 @@ def reference_solution(scenes: list[Scene], *, tol: float | None = None, max_ite
     x_ref = np.zeros((K, N + 1, num.n))
     f_n = np.zeros((K, n_if))
     z_prev = np.zeros((K, n_if))
+    z_prev2 = np.zeros((K, n_if))
     iters = 0
     rng = range(N)
     if progress:
@@ -89,7 +91,8 @@ def reference_solution(scenes: list[Scene], *, tol: float | None = None, max_ite
         sn = num.get_state()
         ss = spec.get_state()
         z_n = num.z.copy()
-        z1 = 2.0 * z_n - z_prev
+        # quadratic extrapolation: an O(ΔT³) first guess saves an iteration on smooth parts
+        z1 = 3.0 * (z_n - z_prev) + z_prev2
         it = 0
         prev = np.inf
         for it in range(max_iter):  # noqa: B007 (it is the iteration count after the loop)
@@ -108,6 +111,7 @@ def reference_solution(scenes: list[Scene], *, tol: float | None = None, max_ite
             # last numerical step used the converged force; re-run the part to match z1
             spec.set_state(ss)
             f1 = spec.advance(z_n, z1).copy()
+        z_prev2 = z_prev
         z_prev = z_n
         f_n = f1
         z_ref[:, n + 1] = num.z

@@ -52,3 +52,10 @@ def test_contact_reference_converges_as_step_shrinks():
     assert errs[2] < 0.01 * np.sqrt(np.mean(fine**2))
     # the test really has contact: the interface displacement stays below the support peak
     assert fine.max() < 0.002 + 0.006
+
+
+def test_interface_iteration_needs_two_passes_per_step():
+    """Quadratic first guess: every step of a linear and a contact test converges in 2 passes."""
+    for name in ("paper_linear", "paper_contact"):
+        sc = load_scene(SCENES / f"{name}.toml", ["duration=4.0"])
+        assert reference_solution([sc])["iterations"] <= 2, name
