@@ -27,8 +27,10 @@ def test_reproduce_rows_and_scores() -> None:
     stewart = table(80, "contact", 1)
     linear = table(40, "linear", 2)
     fams = pd.concat([table(150, "contact", 3), table(150, "kelvin", 4), table(60, "linear", 5)])
+    models: dict = {}
     rows = reproduce(lti, stewart, linear, fams, left_out="linear", n_trainings=2,
-                     topologies=((5,),), feature_sets=(3,), transform="linear")
+                     topologies=((5,),), feature_sets=(3,), transform="linear",
+                     models_out=models)
     systems = [r.system for r in rows]
     assert systems == ["contact, 1-D LTI transfer (vRTHS)", "contact, MuJoCo Stewart platform",
                        "Stewart, inside the training ranges", "linear Table 2 (contact-trained)", "families without 'linear'",
@@ -40,6 +42,13 @@ def test_reproduce_rows_and_scores() -> None:
     assert 2 < rows[2].n_eval < rows[1].n_eval == 80  # Stewart samples inside the ranges
     md = rows_to_markdown(rows)
     assert md.count("\n") == len(rows) + 1 and "| 3 |" in md
+    # the trained estimators come back: the contact one reproduces its row's test ρ
+    assert sorted(models) == ["contact_set3", "families_set3"]
+    from rths3d.dataset.table import training_data
+
+    m = models["contact_set3"][0]
+    X, y, _ = training_data(lti, 3)
+    assert m.scores(X, y)["members_r_test"] == rows[0].members
 
 
 def test_split_seeds_pool_trainings_of_all_splits() -> None:

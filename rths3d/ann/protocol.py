@@ -195,7 +195,8 @@ def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any 
               topologies: Sequence[Sequence[int]] | None = None,
               feature_sets: Sequence[int] = (1, 2, 3), transform: str = "log",
               split_seeds: Sequence[int] | None = None, bypass: bool = True,
-              stewart_in_range: bool = True) -> list[ProtocolRow]:
+              stewart_in_range: bool = True,
+              models_out: dict[str, list[FidelityANN]] | None = None) -> list[ProtocolRow]:
     """Run the whole protocol on sweep tables (DataFrames) and return the result rows.
 
     ``contact_lti``: the paper's contact tests with the 1-D LTI transfer (training data);
@@ -205,6 +206,8 @@ def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any 
     ``split_seeds``: train on each of these 70/15/15 splits and pool (default: ``seed`` only).
     ``stewart_in_range``: also score the Stewart tests whose features all lie inside the
     training ranges (the paper kept only such samples of the linear system), when some do not.
+    ``models_out``: a dict that receives the trained estimators, one per split seed, under
+    ``"contact_set<N>"`` and ``"families_set<N>"`` (N = feature set), for plots and reuse.
     """
     from ..dataset.table import training_data
 
@@ -223,6 +226,8 @@ def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any 
         model, row = train(X, y, "contact, 1-D LTI transfer (vRTHS)", fs,
                            "trained here; ρ eval = test set")
         models[fs] = model
+        if models_out is not None:
+            models_out[f"contact_set{fs}"] = model
         rows.append(row)
     if contact_stewart is not None:
         for fs in feature_sets:
@@ -245,6 +250,8 @@ def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any 
             X, y, _ = training_data(families, fs, exclude=[left_out])
             model, row = train(X, y, f"families without {left_out!r}", fs,
                                "test set of the training families")
+            if models_out is not None:
+                models_out[f"families_set{fs}"] = model
             rows.append(row)
             Xo, yo, _ = training_data(families, fs, families=[left_out])
             if len(yo) > 2:
