@@ -12,9 +12,9 @@ until the iteration stagnates at its contact solver's noise, ~1e-9 m). The pass 
 to numerical interface displacement) is affine within a contact regime, so from the second
 pass on the new guess is the secant step z + (g − z)/(1 − s), s the pass's slope per test and
 DOF measured on the last two passes and kept across steps: a batch of tests as stiff and as
-soft as Table 1's converges in 2 passes per step instead of 3.
-At convergence the mount displacement equals the numerical interface displacement and the
-force is the same on both sides at every sample.
+soft as Table 1's converges in 2 passes per step instead of 3. At convergence the mount
+displacement equals the numerical interface displacement and the force is the same on both
+sides at every sample.
 
 The 1-D parts use the numpy specimen with classical Runge–Kutta substeps; the multi-DOF part
 uses the MuJoCo specimen (its own integrator) reset to the saved state at every iteration.
@@ -121,6 +121,8 @@ def reference_solution(scenes: list[Scene], *, tol: float | None = None, max_ite
                 dz = z1 - z_last
                 moved = np.abs(dz) > 100.0 * tol  # below: noise of the part, not a slope
                 np.copyto(slope, (g - g_last) / np.where(moved, dz, 1.0), where=moved)
+                # s ≤ 0.9 bounds the step at 10× the plain pass (a slope measured across a
+                # contact change is wrong for a step); the next pass re-measures it
                 np.clip(slope, -10.0, 0.9, out=slope)
             z_last, g_last = z1, g
             z1 = z1 + (g - z1) / (1.0 - slope)

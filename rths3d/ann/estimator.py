@@ -36,7 +36,6 @@ FORMAT = "rths3d-fidelity-ann/1"
 DEFAULT_TOPOLOGIES: tuple[tuple[int, ...], ...] = ((2,), (5,), (10,), (20,), (5, 5), (10, 10))
 
 
-
 def parse_topologies(text: str | None, field: str = "--topologies"
                      ) -> tuple[tuple[int, ...], ...] | None:
     """Candidate hidden layers from text: ``'5;10;5,5'`` or ``'10x10;20x20'`` (``;`` between
@@ -53,6 +52,7 @@ def parse_topologies(text: str | None, field: str = "--topologies"
             raise ConfigError(field, text, "every width must be >= 1")
         out.append(widths)
     return tuple(out)
+
 
 TRANSFORMS = ("linear", "log")
 
