@@ -4,7 +4,8 @@ Predicts the relative RMS reference error e_rel,ref from indicators available wi
 reference solution (a Table-3 feature set). Pieces: :mod:`.network` (satlins FNN),
 :mod:`.normalize` ([−1, 1] scaling and the 70/15/15 split), :mod:`.training` (LM, Adam
 baseline), :mod:`.estimator` (topology search + ensemble, save/load), :mod:`.sensitivity`,
-:mod:`.plots`, :mod:`.scores`.
+:mod:`.plots`, :mod:`.scores`, :mod:`.learning_curve` (accuracy against the number of training
+tests).
 """
 
 from .estimator import (
@@ -14,6 +15,7 @@ from .estimator import (
     TopologyScore,
     parse_topologies,
 )
+from .learning_curve import LearningPoint, learning_curve
 from .network import Topology
 from .normalize import MinMax, split_indices
 from .scores import mse, pearson_rho
@@ -22,8 +24,7 @@ from .training import AdamConfig, LMConfig, TrainResult, time_to_val_mse, train_
 
 __all__ = [
     "DEFAULT_TOPOLOGIES", "AdamConfig", "ExtrapolationWarning", "FidelityANN", "LMConfig",
-    "MinMax", "Topology", "TopologyScore", "TrainResult", "mse", "parse_topologies",
-    "pearson_rho", "rank",
-    "sensitivity_mean", "sensitivity_permutation", "split_indices", "time_to_val_mse",
-    "train_adam", "train_lm",
+    "LearningPoint", "MinMax", "Topology", "TopologyScore", "TrainResult", "learning_curve",
+    "mse", "parse_topologies", "pearson_rho", "rank", "sensitivity_mean",
+    "sensitivity_permutation", "split_indices", "time_to_val_mse", "train_adam", "train_lm",
 ]

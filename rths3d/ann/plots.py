@@ -8,7 +8,7 @@ spread as error bars when given).
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -69,6 +69,47 @@ def save_figures(path: str | os.PathLike, sets: Mapping[str, tuple[np.ndarray, n
     last = names[-1]
     prediction_axes(axes[-1], *sets[last],
                     spread=None if spread is None else spread.get(last), title=last)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def save_learning_curve(path: str | os.PathLike, curves: Mapping[str, Sequence], title: str = ""
+                        ) -> Path:
+    """Learning curves (:func:`rths3d.ann.learning_curve.learning_curve`) in one figure.
+
+    ``curves`` maps a label (e.g. ``"set 1"``) to its list of ``LearningPoint``. Left: test ρ
+    of the ensemble (solid) and training ρ (dashed) against the training size; right: the
+    test residual of log10(prediction / target) in decades, log-log, where a straight falling
+    line means more data keeps helping.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10.0, 4.0))
+    for label, pts in curves.items():
+        n = [p.n_train for p in pts]
+        line, = a1.semilogx(n, [p.r_test_ensemble for p in pts], "o-", label=f"{label} test")
+        a1.semilogx(n, [p.r_train_ensemble for p in pts], "s--", color=line.get_color(),
+                    mfc="none", label=f"{label} training")
+        a2.loglog(n, [p.log_residual_test for p in pts], "o-", color=line.get_color(),
+                  label=label)
+    a1.axhline(0.99, color="k", lw=0.8, ls=":", label="ρ = 0.99")
+    a1.set_xlabel("training tests")
+    a1.set_ylabel("ρ (eq. 15), ensemble")
+    a1.legend(fontsize="small")
+    a1.grid(alpha=0.3, which="both")
+    a2.set_xlabel("training tests")
+    a2.set_ylabel("test residual of log10(pred / target) (decades)")
+    a2.legend(fontsize="small")
+    a2.grid(alpha=0.3, which="both")
     if title:
         fig.suptitle(title)
     fig.tight_layout()
