@@ -144,10 +144,29 @@ def test_shipped_specs_parse_and_resolve_their_scenes() -> None:
             scene_with(base, _overrides(spec, first))  # its overrides validate
         sizes[spec.name] = len(tests)
     assert sizes["table1_lti"] == 13230
+    assert sizes["table1_lti_large"] == 100_000
     assert sizes["families_wide"] == 1720
     assert sizes["families_large"] == 4240
     assert sizes["paper280_lti"] == sizes["paper280_stewart"] == 280
     assert sizes["table2_linear"] == 108
+
+
+def test_table1_lti_large_holds_distinct_tests_over_the_whole_grid() -> None:
+    """table1_lti_large: 100000 distinct tests of Table 1 × 60 transfer settings, every
+    setting used, almost every Table-1 point (7.6 draws each on average)."""
+    from pathlib import Path
+
+    spec = load_spec(Path(__file__).resolve().parents[1] / "scenes" / "sweeps"
+                     / "table1_lti_large.toml")
+    points, settings, grid = set(), set(), set()
+    for t in spec.tests():
+        p = t["params"]
+        points.add(tuple(sorted(p.items())))
+        settings.add(tuple(p[k] for k in p if k.startswith("transfer.")))
+        grid.add(tuple(p[k] for k in p if not k.startswith("transfer.")))
+    assert len(points) == 100_000
+    assert len(settings) == 60
+    assert 13_150 <= len(grid) <= 13_230
 
 
 def test_families_large_draws_every_servo_setting_in_every_family() -> None:
