@@ -102,6 +102,15 @@ def save_learning_curve(path: str | os.PathLike, curves: Mapping[str, Sequence],
         a2.loglog(n, [p.log_residual_test for p in pts], "o-", color=line.get_color(),
                   label=label)
     a1.axhline(0.99, color="k", lw=0.8, ls=":", label="ρ = 0.99")
+    from matplotlib.ticker import FormatStrFormatter, NullFormatter
+
+    # one or two decades: label the training sizes themselves, not overlapping minor ticks
+    sizes = sorted({p.n_train for pts in curves.values() for p in pts})
+    for ax in (a1, a2):
+        ax.set_xticks(sizes, [str(v) for v in sizes])
+        ax.xaxis.set_minor_formatter(NullFormatter())
+    a2.yaxis.set_major_formatter(FormatStrFormatter("%.3g"))
+    a2.yaxis.set_minor_formatter(FormatStrFormatter("%.3g"))
     a1.set_xlabel("training tests")
     a1.set_ylabel("ρ (eq. 15), ensemble")
     a1.legend(fontsize="small")
