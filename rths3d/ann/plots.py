@@ -16,6 +16,20 @@ import numpy as np
 from .scores import pearson_rho
 
 
+def _finish(fig, path: str | os.PathLike, title: str) -> Path:
+    """Title, tight layout, write the PNG (creating its folder) and close the figure."""
+    import matplotlib.pyplot as plt
+
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def regression_axes(ax, targets: np.ndarray, outputs: np.ndarray, title: str = "") -> None:
     """Draw one regression plot (targets on x, net outputs on y) into ``ax``."""
     t = np.asarray(targets, dtype=float)
@@ -69,14 +83,7 @@ def save_figures(path: str | os.PathLike, sets: Mapping[str, tuple[np.ndarray, n
     last = names[-1]
     prediction_axes(axes[-1], *sets[last],
                     spread=None if spread is None else spread.get(last), title=last)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _finish(fig, path, title)
 
 
 def save_learning_curve(path: str | os.PathLike, curves: Mapping[str, Sequence], title: str = ""
@@ -119,11 +126,4 @@ def save_learning_curve(path: str | os.PathLike, curves: Mapping[str, Sequence],
     a2.set_ylabel("test residual of log10(pred / target) (decades)")
     a2.legend(fontsize="small")
     a2.grid(alpha=0.3, which="both")
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _finish(fig, path, title)
