@@ -99,6 +99,7 @@ def save_learning_curve(path: str | os.PathLike, curves: Mapping[str, Sequence],
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FormatStrFormatter, NullFormatter
 
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10.0, 4.0))
     for label, pts in curves.items():
@@ -109,8 +110,6 @@ def save_learning_curve(path: str | os.PathLike, curves: Mapping[str, Sequence],
         a2.loglog(n, [p.log_residual_test for p in pts], "o-", color=line.get_color(),
                   label=label)
     a1.axhline(0.99, color="k", lw=0.8, ls=":", label="ρ = 0.99")
-    from matplotlib.ticker import FormatStrFormatter, NullFormatter
-
     # one or two decades: label the training sizes themselves, not overlapping minor ticks
     sizes = sorted({p.n_train for pts in curves.values() for p in pts})
     for ax in (a1, a2):
