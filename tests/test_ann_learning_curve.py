@@ -36,7 +36,7 @@ def test_residual_falls_to_the_noise_floor(curve) -> None:
 
 
 def test_sizes_split_into_training_and_validation(curve) -> None:
-    """Each size is training + 15 % validation samples; the test set is the same throughout."""
+    """Each size is training + 15 % validation samples, with the chosen topology reported."""
     assert [p.n_train + p.n_val for p in curve] == [40, 200, 1000]
     assert [p.n_val for p in curve] == [6, 30, 150]
     assert all(p.topology == "8+lin" and p.seconds > 0 for p in curve)
