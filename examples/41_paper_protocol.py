@@ -78,7 +78,7 @@ def main() -> None:
     rows = reproduce(lti, stewart, linear, families, left_out="linear",
                      n_trainings=args.trainings, seed=0, transform=args.transform,
                      split_seeds=tuple(range(args.splits)), bypass=not args.no_bypass,
-                     topologies=topologies, models_out=models)
+                     topologies=topologies, models_out=models, progress=True)
     table = rows_to_markdown(rows)
     print(table)
     print("\nThe paper's Table 4:")

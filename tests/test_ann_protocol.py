@@ -71,3 +71,19 @@ def test_split_seeds_pool_trainings_of_all_splits() -> None:
     assert [len(r.members) for r in applied][:2] == [6, 6]
     assert "3 splits" in applied[1].note
     assert applied[0].members == row.members
+
+
+def test_progress_bar_names_each_training_run(capsys) -> None:
+    """With progress=True every fit shows a bar labelled with its system, set and split,
+    counting its trainings; the rows are those of a silent run."""
+    lti = table(120, "contact", 0)
+    loud = reproduce(lti, n_trainings=2, topologies=((5,),), feature_sets=(3,),
+                     split_seeds=(0, 1), progress=True)
+    err = capsys.readouterr().err
+    for s in (0, 1):
+        assert f"contact, 1-D LTI transfer (vRTHS), set 3, split {s}" in err
+    assert "2/2" in err
+    quiet = reproduce(lti, n_trainings=2, topologies=((5,),), feature_sets=(3,),
+                      split_seeds=(0, 1))
+    assert capsys.readouterr().err == ""
+    assert loud[0].members == quiet[0].members

@@ -178,13 +178,14 @@ class FidelityANN:
 
     # ------------------------------------------------------------------ fit
     def fit(self, X: Any, y: Any, feature_names: Sequence[str] | None = None,
-            indices: dict[str, np.ndarray] | None = None, progress: bool = False
+            indices: dict[str, np.ndarray] | None = None, progress: bool | str = False
             ) -> FidelityANN:
         """Search the topology and train the ensemble on X (N, d) → y (N,).
 
         ``X`` may be a pandas DataFrame (its column names become the feature names).
         ``indices`` (keys ``train``, ``val``, ``test``) fixes the split; otherwise a random
-        70/15/15 split by ``seed`` is drawn and stored.
+        70/15/15 split by ``seed`` is drawn and stored. ``progress``: a bar over the trainings
+        (a string labels it).
         """
         x, names = _as_matrix(X, feature_names)
         t = np.asarray(y, dtype=float).ravel()
@@ -211,7 +212,8 @@ class FidelityANN:
         if progress:
             from tqdm import tqdm
 
-            bar = tqdm(total=len(jobs), desc="training", unit="net")
+            bar = tqdm(total=len(jobs), unit="net",
+                       desc=progress if isinstance(progress, str) else "training")
         for h, k in jobs:
             topo = Topology(x.shape[1], h, self.bypass)
             r = train_lm(topo, xn[tr], tn[tr], xn[va], tn[va],

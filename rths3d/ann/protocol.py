@@ -90,11 +90,15 @@ def _members_rho(model: FidelityANN, X: Any, y: np.ndarray
 
 def fit_and_score(X: Any, y: np.ndarray, system: str, features: int, *, seed: int = 0,
                   n_trainings: int = 5, topologies: Sequence[Sequence[int]] | None = None,
-                  note: str = "", transform: str = "log", bypass: bool = True
-                  ) -> tuple[FidelityANN, ProtocolRow]:
-    """Train on (X, y) (70/15/15) and report the training and *test-set* ρ over trainings."""
+                  note: str = "", transform: str = "log", bypass: bool = True,
+                  progress: bool = False) -> tuple[FidelityANN, ProtocolRow]:
+    """Train on (X, y) (70/15/15) and report the training and *test-set* ρ over trainings.
+
+    ``progress``: a bar per fit, labelled with the system, the feature set and the split.
+    """
+    label = f"{system}, set {features}, split {seed}" if progress else False
     model = FidelityANN(topologies=topologies, n_trainings=n_trainings, seed=seed,
-                        transform=transform, bypass=bypass).fit(X, y)
+                        transform=transform, bypass=bypass).fit(X, y, progress=label)
     sc = model.scores(X, y)
     rt, rte = sc["members_r_train"], sc["members_r_test"]
     te = model.indices["test"]
@@ -110,7 +114,7 @@ def fit_and_score(X: Any, y: np.ndarray, system: str, features: int, *, seed: in
 def fit_and_score_splits(X: Any, y: np.ndarray, system: str, features: int, *,
                          split_seeds: Sequence[int] = (0, 1, 2, 3, 4), n_trainings: int = 5,
                          topologies: Sequence[Sequence[int]] | None = None, note: str = "",
-                         transform: str = "log", bypass: bool = True
+                         transform: str = "log", bypass: bool = True, progress: bool = False
                          ) -> tuple[list[FidelityANN], ProtocolRow]:
     """:func:`fit_and_score` over several splits (one seed each), pooled into one row.
 
@@ -122,7 +126,7 @@ def fit_and_score_splits(X: Any, y: np.ndarray, system: str, features: int, *,
     for s in split_seeds:
         m, r = fit_and_score(X, y, system, features, seed=int(s), n_trainings=n_trainings,
                              topologies=topologies, note=note, transform=transform,
-                             bypass=bypass)
+                             bypass=bypass, progress=progress)
         models.append(m)
         rows.append(r)
     return models, _pool(rows, trained=True, note=note)
@@ -195,7 +199,7 @@ def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any 
               topologies: Sequence[Sequence[int]] | None = None,
               feature_sets: Sequence[int] = (1, 2, 3), transform: str = "log",
               split_seeds: Sequence[int] | None = None, bypass: bool = True,
-              stewart_in_range: bool = True,
+              stewart_in_range: bool = True, progress: bool = False,
               models_out: dict[str, list[FidelityANN]] | None = None) -> list[ProtocolRow]:
     """Run the whole protocol on sweep tables (DataFrames) and return the result rows.
 
@@ -206,6 +210,8 @@ def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any 
     ``split_seeds``: train on each of these 70/15/15 splits and pool (default: ``seed`` only).
     ``stewart_in_range``: also score the Stewart tests whose features all lie inside the
     training ranges (the paper kept only such samples of the linear system), when some do not.
+    ``progress``: a progress bar for every training run (they take minutes to hours on the
+    large sweeps).
     ``models_out``: a dict that receives the trained estimators, one per split seed, under
     ``"contact_set<N>"`` and ``"families_set<N>"`` (N = feature set), for plots and reuse.
     """
@@ -217,7 +223,8 @@ def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any 
               ) -> tuple[list[FidelityANN], ProtocolRow]:
         return fit_and_score_splits(X, y, system, fs, split_seeds=seeds,
                                     n_trainings=n_trainings, topologies=topologies,
-                                    note=note, transform=transform, bypass=bypass)
+                                    note=note, transform=transform, bypass=bypass,
+                                    progress=progress)
 
     rows: list[ProtocolRow] = []
     models: dict[int, list[FidelityANN]] = {}
