@@ -13,21 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..figures import new_figure, save_figure
 from .scores import pearson_rho
-
-
-def _finish(fig, path: str | os.PathLike, title: str) -> Path:
-    """Title, tight layout, write the PNG (creating its folder) and close the figure."""
-    import matplotlib.pyplot as plt
-
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
 
 
 def regression_axes(ax, targets: np.ndarray, outputs: np.ndarray, title: str = "") -> None:
@@ -71,19 +58,15 @@ def save_figures(path: str | os.PathLike, sets: Mapping[str, tuple[np.ndarray, n
 
     ``sets`` maps a set name (e.g. ``"training"``, ``"test"``) to (targets, outputs).
     """
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
     names = list(sets)
-    fig, axes = plt.subplots(1, len(names) + 1, figsize=(4.2 * (len(names) + 1), 4.0))
+    fig = new_figure((4.2 * (len(names) + 1), 4.0))
+    axes = fig.subplots(1, len(names) + 1)
     for ax, name in zip(axes, names, strict=False):
         regression_axes(ax, *sets[name], title=name)
     last = names[-1]
     prediction_axes(axes[-1], *sets[last],
                     spread=None if spread is None else spread.get(last), title=last)
-    return _finish(fig, path, title)
+    return save_figure(fig, path, title=title)
 
 
 def save_learning_curve(path: str | os.PathLike, curves: Mapping[str, Sequence], title: str = ""
@@ -95,13 +78,10 @@ def save_learning_curve(path: str | os.PathLike, curves: Mapping[str, Sequence],
     test residual of log10(prediction / target) in decades, log-log, where a straight falling
     line means more data keeps helping.
     """
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
     from matplotlib.ticker import FormatStrFormatter, NullFormatter
 
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10.0, 4.0))
+    fig = new_figure((10.0, 4.0))
+    a1, a2 = fig.subplots(1, 2)
     for label, pts in curves.items():
         n = [p.n_train for p in pts]
         line, = a1.semilogx(n, [p.r_test_ensemble for p in pts], "o-", label=f"{label} test")
@@ -125,4 +105,4 @@ def save_learning_curve(path: str | os.PathLike, curves: Mapping[str, Sequence],
     a2.set_ylabel("test residual of log10(pred / target) (decades)")
     a2.legend(fontsize="small")
     a2.grid(alpha=0.3, which="both")
-    return _finish(fig, path, title)
+    return save_figure(fig, path, title=title)

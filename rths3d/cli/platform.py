@@ -11,6 +11,7 @@ from pathlib import Path
 
 import typer
 
+from ..figures import new_figure, save_figure
 from ._app import app
 
 platform_app = typer.Typer(
@@ -42,17 +43,13 @@ def _payload(mass: float) -> str | None:
 
 def plot_tracking(record, dof: str, path: Path, title: str) -> Path:
     """PNG: commanded vs achieved motion, the tracking error and the SSP (z vs z')."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import numpy as np
 
     t = record.t
     c = record.columns[f"pose_cmd.{dof}"]
     m = record.columns[f"pose_meas.{dof}"]
     unit, scale = ("mrad", 1e3) if dof.startswith("r") else ("mm", 1e3)
-    fig = plt.figure(figsize=(11, 6.5))
+    fig = new_figure((11, 6.5))
     gs = fig.add_gridspec(2, 2, width_ratios=(2.2, 1))
     ax1 = fig.add_subplot(gs[0, 0])
     ax2 = fig.add_subplot(gs[1, 0], sharex=ax1)
@@ -75,11 +72,7 @@ def plot_tracking(record, dof: str, path: Path, title: str) -> Path:
     ax3.legend(fontsize=8, loc="upper left")
     for ax in (ax1, ax2, ax3):
         ax.grid(True, alpha=0.3)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 @platform_app.command()

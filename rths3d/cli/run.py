@@ -8,20 +8,17 @@ from pathlib import Path
 
 import typer
 
+from ..figures import new_figure, save_figure
 from ._app import app
 
 
 def _plot(record, path: Path) -> Path:
     """z, z', z^r over time and the synchronisation subspace plot (z' against z)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import numpy as np
 
     dofs = record.dofs
-    fig, axes = plt.subplots(len(dofs), 2, figsize=(11, 3.6 * len(dofs)), squeeze=False,
-                             gridspec_kw={"width_ratios": [2.2, 1]})
+    fig = new_figure((11, 3.6 * len(dofs)))
+    axes = fig.subplots(len(dofs), 2, squeeze=False, gridspec_kw={"width_ratios": [2.2, 1]})
     t = record.t
     for i, d in enumerate(dofs):
         unit, scale = ("mrad", 1e3) if d.startswith("r") else ("mm", 1e3)
@@ -57,11 +54,7 @@ def _plot(record, path: Path) -> Path:
     meta = record.meta
     fig.suptitle(f"{meta.get('scene', '')} — transfer: {meta.get('transfer', '')} — "
                  f"{meta.get('status', '')} {meta.get('reason', '')}"[:140], fontsize=10)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 @app.command()

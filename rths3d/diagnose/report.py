@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from ..figures import new_figure, save_figure
 from ..record import DOFS, Record
 from .engine import Diagnosis, RoundResult
 from .localise import condition_table, fei, residual_spectrum, transfer_estimate, window_rms
@@ -77,10 +78,6 @@ def localisation(diag: Diagnosis) -> dict[str, Any]:
 
 
 def _plot_localisation(diag: Diagnosis, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     out = diag.predict()
     res = diag.residuals()
@@ -88,7 +85,8 @@ def _plot_localisation(diag: Diagnosis, path: Path) -> None:
     dt = diag.dt
     contact = out["contact"] > 0
     chans = diag.channels
-    fig, axes = plt.subplots(len(chans), 3, figsize=(15, 2.8 * len(chans)), squeeze=False)
+    fig = new_figure((15, 2.8 * len(chans)))
+    axes = fig.subplots(len(chans), 3, squeeze=False)
     for i, c in enumerate(chans):
         ax = axes[i, 0]
         ax.plot(t, diag.measured[c], lw=0.8, label="measured")
@@ -120,22 +118,16 @@ def _plot_localisation(diag: Diagnosis, path: Path) -> None:
     for ax in axes[-1]:
         ax.set_xlabel("t (s)")
     axes[-1, 2].set_xlabel("f (Hz)")
-    fig.suptitle("Where the model fails: time, contact phases, frequency")
-    fig.tight_layout(rect=(0, 0, 1, 0.97))
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path, title="Where the model fails: time, contact phases, frequency",
+                dpi=90, rect=(0, 0, 1, 0.97))
 
 
 def _plot_signatures(result: RoundResult, channels: tuple[str, ...], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     cands = result.candidates
     mat = np.array([[c.channel_share.get(ch, 0.0) for ch in channels] for c in cands])
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 0.35 * len(cands) + 1.5),
-                                  gridspec_kw={"width_ratios": [2, 1]})
+    fig = new_figure((12, 0.35 * len(cands) + 1.5))
+    ax, ax2 = fig.subplots(1, 2, gridspec_kw={"width_ratios": [2, 1]})
     im = ax.imshow(mat, aspect="auto", cmap="viridis", vmin=0, vmax=1)
     ax.set_xticks(range(len(channels)), channels, rotation=20)
     ax.set_yticks(range(len(cands)), [c.effect for c in cands])
@@ -149,20 +141,15 @@ def _plot_signatures(result: RoundResult, channels: tuple[str, ...], path: Path)
     ax.set_ylim(len(cands) - 0.5, -0.5)
     ax2.set_xscale("symlog")
     ax2.set_title("held-out ΔBIC (green: significant)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path, dpi=90)
 
 
 def _plot_waterfall(waterfall: list[dict[str, Any]], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     labels = [w["step"] for w in waterfall]
     x = np.arange(len(labels))
-    fig, ax = plt.subplots(figsize=(max(6, 2.2 * len(labels)), 4))
+    fig = new_figure((max(6, 2.2 * len(labels)), 4))
+    ax = fig.subplots()
     ax.bar(x - 0.2, [w["error_train"] for w in waterfall], 0.4, label="training")
     ax.bar(x + 0.2, [w["error_val"] for w in waterfall], 0.4, label="validation")
     ax.axhline(1.0, color="k", ls=":", lw=1, label="noise floor")
@@ -170,9 +157,7 @@ def _plot_waterfall(waterfall: list[dict[str, Any]], path: Path) -> None:
     ax.set_ylabel("RMS error (noise units)")
     ax.set_title("Error effect by effect")
     ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path, dpi=90)
 
 
 def write_report(diag: Diagnosis, result: RoundResult, out_dir: str | Path,

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..figures import new_figure, save_figure
 from ..record import Record
 from .frequency import fei
 from .ssp import fit_ellipse, paei
@@ -21,13 +22,10 @@ FORCE_UNITS = {"x": "N", "y": "N", "z": "N", "rx": "N·m", "ry": "N·m", "rz": "
 
 
 def _figure(rows: int, cols: int, height: float = 3.2, width: float = 5.0):
-    import matplotlib
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(rows, cols, figsize=(width * cols, height * rows), squeeze=False)
-    return plt, fig, axes
+    fig = new_figure((width * cols, height * rows))
+    axes = fig.subplots(rows, cols, squeeze=False)
+    return fig, axes
 
 
 def plot_ssp(record: Record, path: str | Path) -> Path:
@@ -36,7 +34,7 @@ def plot_ssp(record: Record, path: str | Path) -> Path:
     against z, which shows a small lag as an open loop."""
     dofs = record.dofs
     z, zp = record.signal("z_cmd", dofs), record.signal("z_meas", dofs)
-    plt, fig, axes = _figure(2, len(dofs), height=4.0, width=4.4)
+    fig, axes = _figure(2, len(dofs), height=4.0, width=4.4)
     for j, d in enumerate(dofs):
         # lower row: the gap z' − z against z magnifies a small lag into a visible loop
         axg = axes[1, j]
@@ -74,11 +72,7 @@ def plot_ssp(record: Record, path: str | Path) -> Path:
         ax.set_aspect("equal", adjustable="box")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="upper left")
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path)
 
 
 def plot_fei(record: Record, path: str | Path, l: float = 2.0) -> Path:
@@ -91,7 +85,7 @@ def plot_fei(record: Record, path: str | Path, l: float = 2.0) -> Path:
     sz = np.abs(one_sided_amplitude(z))[1:]
     sp = np.abs(one_sided_amplitude(zp))[1:]
     res = fei(z, zp, dt, l)
-    plt, fig, axes = _figure(len(dofs), 1, height=3.0, width=8.0)
+    fig, axes = _figure(len(dofs), 1, height=3.0, width=8.0)
     for j, d in enumerate(dofs):
         ax = axes[j, 0]
         ax.loglog(freqs, np.maximum(sz[:, j], 1e-300), lw=0.8, label="|Z| commanded")
@@ -113,11 +107,7 @@ def plot_fei(record: Record, path: str | Path, l: float = 2.0) -> Path:
         ax.set_ylabel(f"amplitude ({UNITS.get(d, '')})")
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path)
 
 
 def plot_time(record: Record, path: str | Path) -> Path:
@@ -126,7 +116,7 @@ def plot_time(record: Record, path: str | Path) -> Path:
     dofs = record.dofs
     t = record.t
     has_f = record.has("f_meas", dofs)
-    plt, fig, axes = _figure(len(dofs), 2 if has_f else 1, height=2.8, width=6.5)
+    fig, axes = _figure(len(dofs), 2 if has_f else 1, height=2.8, width=6.5)
     for j, d in enumerate(dofs):
         ax = axes[j, 0]
         u = UNITS.get(d, "")
@@ -158,11 +148,7 @@ def plot_time(record: Record, path: str | Path) -> Path:
             axf.set_ylabel(f"force {d} ({FORCE_UNITS.get(d, '')})")
             axf.grid(alpha=0.3)
             axf.legend(fontsize=7, loc="upper right")
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path)
 
 
 def plot_record(record: Record, out_dir: str | Path) -> list[Path]:

@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
+from ..figures import new_figure, save_figure
 from .model import PlatformConfig
 from .sim import PlatformSim
 
@@ -277,15 +278,11 @@ class IdentifyResult:
 
     def bode_plot(self, path: str | os.PathLike) -> Path:
         """Bode plot (PNG): measured response per pose (markers) and the fit (line)."""
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
         f = self.frequencies
         ff = np.geomspace(f.min(), f.max(), 400)
         G = self.tf.frequency_response(ff)
-        fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
+        fig = new_figure((8, 7))
+        ax1, ax2 = fig.subplots(2, 1, sharex=True)
         for label, H in self.responses.items():
             ax1.semilogx(f, 20 * np.log10(np.abs(H)), "o", ms=3.5, label=label)
             ax2.semilogx(f, np.degrees(np.unwrap(np.angle(H))), "o", ms=3.5)
@@ -300,12 +297,7 @@ class IdentifyResult:
         ax1.legend(fontsize=8)
         for ax in (ax1, ax2):
             ax.grid(True, which="both", alpha=0.3)
-        fig.tight_layout()
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        return path
+        return save_figure(fig, path)
 
 
 def identify_heave(config: PlatformConfig | None = None,

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..figures import new_figure, save_figure
 from .simulate import BenchmarkResult
 
 __all__ = ["plot_result", "plot_trials"]
@@ -15,13 +16,9 @@ __all__ = ["plot_result", "plot_trials"]
 def plot_result(res: BenchmarkResult, path: str | Path, window: tuple[float, float] | None = None
                 ) -> Path:
     """Floor-1 tracking (y_n, x_m, x_r1), floor 2–3 errors and the actuator force of a run."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     c = res.config
-    fig, ax = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
+    fig = new_figure((9, 8))
+    ax = fig.subplots(3, 1, sharex=True)
     ax[0].plot(res.t, 1e3 * res.x_num[:, 0], label="desired $y_n = x_{n1}$")
     ax[0].plot(res.t, 1e3 * res.x_m, "--", label="measured $x_m$")
     ax[0].plot(res.t, 1e3 * res.x_ref[:, 0], ":", label="reference $x_{r1}$")
@@ -45,26 +42,18 @@ def plot_result(res: BenchmarkResult, path: str | Path, window: tuple[float, flo
     ax[0].set_title(title)
     if window is not None:
         ax[0].set_xlim(*window)
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path)
 
 
 def plot_trials(rows: Mapping[int, Sequence[Mapping[str, float]]], path: str | Path,
                 published: Mapping[int, Mapping[str, float]] | None = None) -> Path:
     """Box plots of J2–J9 over perturbed trials per case (``rows[case]`` = table rows), with
     the published nominal values as markers where given."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     keys = [f"J{i}" for i in range(2, 10)]
     cases = sorted(rows)
-    fig, axes = plt.subplots(1, len(cases), figsize=(3.2 * len(cases), 4), sharey=True,
-                             squeeze=False)
+    fig = new_figure((3.2 * len(cases), 4))
+    axes = fig.subplots(1, len(cases), sharey=True, squeeze=False)
     for ax, c in zip(axes[0], cases, strict=True):
         data = np.array([[r[k] for k in keys] for r in rows[c]])
         ax.boxplot(data, tick_labels=keys)
@@ -75,8 +64,4 @@ def plot_trials(rows: Mapping[int, Sequence[Mapping[str, float]]], path: str | P
         ax.set_title(f"case {c} ({len(rows[c])} trials)")
         ax.tick_params(axis="x", labelrotation=60)
     axes[0][0].set_ylabel("criterion (%)")
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path)
