@@ -10,7 +10,7 @@
 Usage: ``python examples/41_paper_protocol.py [--out DIR] [--workers N] [--quick]
 [--transform linear|log] [--contact paper280_lti|contact1400_lti|table1_lti]
 [--families families_large|families_wide|families|none] [--splits N] [--topologies 10x10;20x20]
-[--no-bypass]``.
+[--no-bypass] [--sets 1,2,3]``.
 Sweeps are resumable: re-running reuses finished tests in DIR.
 """
 
@@ -33,6 +33,19 @@ def sweep(name: str, out: Path, workers: int | None, quick: bool):
         fams = tuple(replace(f, subset=min(f.subset or 10**9, 60)) for f in spec.families)
         spec = replace(spec, families=fams, name=f"{spec.name}_quick")
     return run_sweep(spec, out / spec.name, workers=workers, progress=True)
+
+
+def parse_sets(text: str) -> tuple[int, ...]:
+    """'1,3' → (1, 3): feature sets of Table 3, each once, in order."""
+    from rths3d.errors import ConfigError
+
+    try:
+        sets = tuple(sorted({int(v) for v in text.split(",") if v.strip()}))
+    except ValueError:
+        raise ConfigError("--sets", text, "comma-separated feature sets 1, 2, 3") from None
+    if not sets or not set(sets) <= {1, 2, 3}:
+        raise ConfigError("--sets", text, "comma-separated feature sets 1, 2, 3")
+    return sets
 
 
 def main() -> None:
@@ -58,6 +71,9 @@ def main() -> None:
                     help="train on N 70/15/15 splits (seeds 0..N-1) and pool the ρ figures")
     ap.add_argument("--no-bypass", action="store_true",
                     help="the paper's plain FNN (no linear input-output bypass)")
+    ap.add_argument("--sets", default="1,2,3",
+                    help="feature sets to train, e.g. '1' (one set per run on long studies; "
+                         "the plots use set 2 when trained, else the first)")
     args = ap.parse_args()
 
     from rths3d.ann import parse_topologies
@@ -65,6 +81,8 @@ def main() -> None:
     from rths3d.ann.protocol import PAPER_TABLE4, reproduce, rows_to_markdown
 
     topologies = parse_topologies(args.topologies)  # before the sweeps: fail fast
+    sets = parse_sets(args.sets)
+    fs = 2 if 2 in sets else sets[0]  # the set drawn in the figures
 
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
@@ -78,7 +96,8 @@ def main() -> None:
     rows = reproduce(lti, stewart, linear, families, left_out="linear",
                      n_trainings=args.trainings, seed=0, transform=args.transform,
                      split_seeds=tuple(range(args.splits)), bypass=not args.no_bypass,
-                     topologies=topologies, models_out=models, progress=True)
+                     topologies=topologies, feature_sets=sets, models_out=models,
+                     progress=True)
     table = rows_to_markdown(rows)
     print(table)
     print("\nThe paper's Table 4:")
@@ -87,37 +106,38 @@ def main() -> None:
               f"ρ test {r['r_test']}, MSE {r['mse']}")
     tag = (f"{args.contact}_{args.families}_{args.transform}" + ("_plain" if args.no_bypass else "")
            + (f"_{args.splits}splits" if args.splits > 1 else "")
-           + (f"_{args.topologies.replace(';', '-')}" if args.topologies else ""))
+           + (f"_{args.topologies.replace(';', '-')}" if args.topologies else "")
+           + ("" if sets == (1, 2, 3) else "_set" + "".join(map(str, sets))))
     (out / f"table4_{tag}.md").write_text(table + "\n")
     (out / f"table4_{tag}.json").write_text(json.dumps([r.as_dict() for r in rows], indent=1))
 
-    # regression + prediction plots like the paper's Figs. 6-9: the set-2 ensemble that the
-    # protocol trained on split seed 0
+    # regression + prediction plots like the paper's Figs. 6-9: the set-2 (else first set's)
+    # ensemble that the protocol trained on split seed 0
     from rths3d.dataset import training_data
 
-    X, y, _ = training_data(lti, 2)
-    model = models["contact_set2"][0]
+    X, y, _ = training_data(lti, fs)
+    model = models[f"contact_set{fs}"][0]
     mean, std = model.predict(X, return_std=True, warn=False)
     tr, te = model.indices["train"], model.indices["test"]
-    save_figures(out / "fig6_7_contact_lti_set2.png",
+    save_figures(out / f"fig6_7_contact_lti_set{fs}.png",
                  {"training": (y[tr], mean[tr]), "test": (y[te], mean[te])},
-                 spread={"test": std[te]}, title="contact, 1-D LTI transfer, feature set 2")
-    Xs, ys, _ = training_data(stewart, 2)
+                 spread={"test": std[te]}, title=f"contact, 1-D LTI transfer, feature set {fs}")
+    Xs, ys, _ = training_data(stewart, fs)
     ms, ss = model.predict(Xs, return_std=True, warn=False)
-    save_figures(out / "fig8_stewart_set2.png", {"Stewart platform": (ys, ms)},
+    save_figures(out / f"fig8_stewart_set{fs}.png", {"Stewart platform": (ys, ms)},
                  spread={"Stewart platform": ss}, title="LTI-trained net on the Stewart tests")
-    Xl, yl, _ = training_data(linear, 2)
+    Xl, yl, _ = training_data(linear, fs)
     ml, sl = model.predict(Xl, return_std=True, warn=False)
-    save_figures(out / "fig9_linear_set2.png", {"linear Table 2": (yl, ml)},
+    save_figures(out / f"fig9_linear_set{fs}.png", {"linear Table 2": (yl, ml)},
                  spread={"linear Table 2": sl}, title="contact-trained net on the linear system")
     if families is None:
         print(f"\nwritten: {out / f'table4_{tag}.md'}, plots in {out}")
         return
     # the paper's cure: a net trained on the other families, on the never-seen family
-    fam_model = models["families_set2"][0]
-    Xo, yo, _ = training_data(families, 2, families=["linear"])
+    fam_model = models[f"families_set{fs}"][0]
+    Xo, yo, _ = training_data(families, fs, families=["linear"])
     mo, so = fam_model.predict(Xo, return_std=True, warn=False)
-    save_figures(out / "fig10_left_out_linear_set2.png", {"left-out linear family": (yo, mo)},
+    save_figures(out / f"fig10_left_out_linear_set{fs}.png", {"left-out linear family": (yo, mo)},
                  spread={"left-out linear family": so},
                  title="net trained on the other families, never-seen linear family")
     print(f"\nwritten: {out / f'table4_{tag}.md'}, plots in {out}")
