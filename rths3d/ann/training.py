@@ -85,8 +85,12 @@ class TrainResult:
             return forward(self.topology, self.weights, x).numpy().copy()
 
 
-def _tensors(x: np.ndarray, t: np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
-    return (torch.as_tensor(np.ascontiguousarray(x, dtype=float), dtype=DTYPE),
+def _tensors(topo: Topology, x: np.ndarray, t: np.ndarray, name: str
+             ) -> tuple[torch.Tensor, torch.Tensor]:
+    """Checked (N, n_in) inputs and (N,) targets of the ``name`` set as torch tensors."""
+    x = np.asarray(x, dtype=float)
+    _check(x, t, topo, name)
+    return (torch.as_tensor(np.ascontiguousarray(x), dtype=DTYPE),
             torch.as_tensor(np.ascontiguousarray(t, dtype=float).ravel(), dtype=DTYPE))
 
 
@@ -107,12 +111,8 @@ def train_lm(topo: Topology, x_train: np.ndarray, t_train: np.ndarray, x_val: np
     Inputs and targets must already be normalised to [−1, 1]. Returns the weights of the
     epoch with the smallest validation MSE (MATLAB returns the same).
     """
-    x_train = np.asarray(x_train, dtype=float)
-    x_val = np.asarray(x_val, dtype=float)
-    _check(x_train, t_train, topo, "train")
-    _check(x_val, t_val, topo, "val")
-    xt, tt = _tensors(x_train, t_train)
-    xv, tv = _tensors(x_val, t_val)
+    xt, tt = _tensors(topo, x_train, t_train, "train")
+    xv, tv = _tensors(topo, x_val, t_val, "val")
     w = init_weights(topo, np.random.default_rng(seed)) if w0 is None else w0.clone()
     n_p = w.numel()
     eye = torch.eye(n_p, dtype=DTYPE)
@@ -185,12 +185,8 @@ def train_adam(topo: Topology, x_train: np.ndarray, t_train: np.ndarray, x_val: 
 
     Used to measure how much faster Levenberg–Marquardt reaches a given validation MSE.
     """
-    x_train = np.asarray(x_train, dtype=float)
-    x_val = np.asarray(x_val, dtype=float)
-    _check(x_train, t_train, topo, "train")
-    _check(x_val, t_val, topo, "val")
-    xt, tt = _tensors(x_train, t_train)
-    xv, tv = _tensors(x_val, t_val)
+    xt, tt = _tensors(topo, x_train, t_train, "train")
+    xv, tv = _tensors(topo, x_val, t_val, "val")
     w = init_weights(topo, np.random.default_rng(seed)).requires_grad_(True)
     opt = torch.optim.Adam([w], lr=config.lr)
     start = time.perf_counter()
