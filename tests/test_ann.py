@@ -241,6 +241,28 @@ def test_regression_plots_written(fitted, tmp_path) -> None:
     assert p.stat().st_size > 10_000
 
 
+def test_prediction_plot_sorts_large_sets_by_target() -> None:
+    """Up to sort_above samples keep their order; a larger set is drawn sorted by target, each
+    prediction still beside its own target, on a log axis when all values are positive."""
+    from rths3d.ann.plots import prediction_axes
+    from rths3d.figures import new_figure
+
+    rng = np.random.default_rng(0)
+    t = 10.0 ** rng.uniform(-3, 0, 500)
+    a = t * 10.0 ** rng.normal(0.0, 0.05, 500)
+    small, large = new_figure().subplots(1, 2)
+    prediction_axes(small, t[:50], a[:50])
+    prediction_axes(large, t, a)
+    assert np.array_equal(small.lines[0].get_ydata(), t[:50])
+    assert small.get_yscale() == "linear"
+    order = np.argsort(t)
+    target_line = next(ln for ln in large.lines if ln.get_label() == "target")
+    output_line = next(ln for ln in large.lines if ln.get_label() == "net output")
+    assert np.array_equal(target_line.get_ydata(), t[order])
+    assert np.array_equal(output_line.get_ydata(), a[order])
+    assert large.get_yscale() == "log"
+
+
 def test_log_transform_is_default_and_fits_power_laws_over_decades() -> None:
     """The default transform is 'log' (stored in the model); on a power law spanning three
     decades it beats the paper's linear map, and signed columns (a lead: fei_d < 0) stay finite."""

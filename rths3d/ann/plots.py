@@ -33,18 +33,40 @@ def regression_axes(ax, targets: np.ndarray, outputs: np.ndarray, title: str = "
 
 
 def prediction_axes(ax, targets: np.ndarray, outputs: np.ndarray,
-                    spread: np.ndarray | None = None, title: str = "") -> None:
-    """Draw targets and predictions per sample into ``ax`` (paper Fig. 7 style)."""
+                    spread: np.ndarray | None = None, title: str = "",
+                    sort_above: int = 200) -> None:
+    """Draw targets and predictions per sample into ``ax`` (paper Fig. 7 style).
+
+    Up to ``sort_above`` samples are drawn in their order, each with its ensemble ``spread``
+    as an error bar. Larger sets (thousands of tests) are drawn sorted by target, the
+    predictions as dots around the target curve and the spread as a band, on a log scale when
+    all values are positive: one marker per sample in table order would hide everything.
+    ``spread`` (same length as the targets): the ensemble's standard deviation.
+    """
     t = np.asarray(targets, dtype=float)
     a = np.asarray(outputs, dtype=float)
     k = np.arange(1, t.size + 1)
-    ax.plot(k, t, "ks", mfc="none", ms=5, label="target")
-    if spread is not None:
-        ax.errorbar(k, a, yerr=np.asarray(spread), fmt="o", ms=3, capsize=2,
-                    label="net output ± ensemble spread")
+    if t.size <= sort_above:
+        ax.plot(k, t, "ks", mfc="none", ms=5, label="target")
+        if spread is not None:
+            ax.errorbar(k, a, yerr=np.asarray(spread), fmt="o", ms=3, capsize=2,
+                        label="net output ± ensemble spread")
+        else:
+            ax.plot(k, a, "o", ms=3, label="net output")
+        ax.set_xlabel("sample")
     else:
-        ax.plot(k, a, "o", ms=3, label="net output")
-    ax.set_xlabel("sample")
+        order = np.argsort(t, kind="stable")
+        t, a = t[order], a[order]
+        if spread is not None:
+            ax.errorbar(k, a, yerr=np.asarray(spread, dtype=float)[order], fmt=".", ms=2,
+                        elinewidth=0.5, alpha=0.4, label="net output ± ensemble spread")
+        else:
+            ax.plot(k, a, ".", ms=2, alpha=0.4, label="net output")
+        ax.plot(k, t, "k-", lw=1.2, label="target", zorder=3)
+        ax.locator_params(axis="x", nbins=5)
+        if t.min() > 0 and a.min() > 0:
+            ax.set_yscale("log")
+        ax.set_xlabel("sample, sorted by target")
     ax.set_ylabel("e_rel,ref (-)")
     if title:
         ax.set_title(title)
