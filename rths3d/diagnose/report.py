@@ -78,7 +78,6 @@ def localisation(diag: Diagnosis) -> dict[str, Any]:
 
 
 def _plot_localisation(diag: Diagnosis, path: Path) -> None:
-
     out = diag.predict()
     res = diag.residuals()
     t = diag.record.t
@@ -123,7 +122,6 @@ def _plot_localisation(diag: Diagnosis, path: Path) -> None:
 
 
 def _plot_signatures(result: RoundResult, channels: tuple[str, ...], path: Path) -> None:
-
     cands = result.candidates
     mat = np.array([[c.channel_share.get(ch, 0.0) for ch in channels] for c in cands])
     fig = new_figure((12, 0.35 * len(cands) + 1.5))
@@ -145,7 +143,6 @@ def _plot_signatures(result: RoundResult, channels: tuple[str, ...], path: Path)
 
 
 def _plot_waterfall(waterfall: list[dict[str, Any]], path: Path) -> None:
-
     labels = [w["step"] for w in waterfall]
     x = np.arange(len(labels))
     fig = new_figure((max(6, 2.2 * len(labels)), 4))

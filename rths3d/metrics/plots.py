@@ -22,7 +22,6 @@ FORCE_UNITS = {"x": "N", "y": "N", "z": "N", "rx": "N·m", "ry": "N·m", "rz": "
 
 
 def _figure(rows: int, cols: int, height: float = 3.2, width: float = 5.0):
-
     fig = new_figure((width * cols, height * rows))
     axes = fig.subplots(rows, cols, squeeze=False)
     return fig, axes
