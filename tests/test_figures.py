@@ -25,11 +25,17 @@ def test_png_written_into_new_folder_with_its_size(tmp_path: Path) -> None:
 
 
 def test_drawing_leaves_pyplot_and_the_backend_alone(tmp_path: Path) -> None:
-    """No figure is registered with pyplot and the backend is not switched."""
+    """No figure is registered with pyplot and a user's backend (here svg, not the Agg that
+    writes the PNG) is not switched."""
     backend = matplotlib.get_backend()
-    before = plt.get_fignums()
-    fig = new_figure()
-    fig.subplots(2, 1, sharex=True)
-    save_figure(fig, tmp_path / "two.png", rect=(0, 0, 1, 0.95))
-    assert plt.get_fignums() == before
-    assert matplotlib.get_backend() == backend
+    matplotlib.use("svg")
+    try:
+        before = plt.get_fignums()
+        fig = new_figure()
+        fig.subplots(2, 1, sharex=True)
+        out = save_figure(fig, tmp_path / "two.png", rect=(0, 0, 1, 0.95))
+        assert plt.get_fignums() == before
+        assert matplotlib.get_backend() == "svg"
+        assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    finally:
+        matplotlib.use(backend)

@@ -39,8 +39,8 @@ def prediction_axes(ax, targets: np.ndarray, outputs: np.ndarray,
 
     Up to ``sort_above`` samples are drawn in their order, each with its ensemble ``spread``
     as an error bar. Larger sets (thousands of tests) are drawn sorted by target, the
-    predictions as dots around the target curve and the spread as a band, on a log scale when
-    all values are positive: one marker per sample in table order would hide everything.
+    predictions as small dots (with thin error bars) around the target curve, on a log scale
+    when all values are positive: one marker per sample in table order would hide everything.
     ``spread`` (same length as the targets): the ensemble's standard deviation.
     """
     t = np.asarray(targets, dtype=float)

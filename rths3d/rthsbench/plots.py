@@ -49,7 +49,6 @@ def plot_trials(rows: Mapping[int, Sequence[Mapping[str, float]]], path: str | P
                 published: Mapping[int, Mapping[str, float]] | None = None) -> Path:
     """Box plots of J2–J9 over perturbed trials per case (``rows[case]`` = table rows), with
     the published nominal values as markers where given."""
-
     keys = [f"J{i}" for i in range(2, 10)]
     cases = sorted(rows)
     fig = new_figure((3.2 * len(cases), 4))
