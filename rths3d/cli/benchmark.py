@@ -41,7 +41,7 @@ def rths(
     seed: int = typer.Option(123, "--seed", help="Seed of the perturbed-plant draws."),
     data: str = typer.Option("", "--data", help="Benchmark folder holding data/ (optional)."),
     plot: str = typer.Option("", "--plot", help="Save a PNG of the first case's time history "
-                             "(and <name>_trials.png of the trial spread with --trials)."),
+                             "(and `<name>`_trials.png of the trial spread with --trials)."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
     """Run the RTHS benchmark and print J1–J9 beside the published Table 3.

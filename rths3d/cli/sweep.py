@@ -11,7 +11,8 @@ from ._app import app
 
 @app.command()
 def sweep(
-    spec: Path = typer.Argument(..., help="Sweep spec (TOML), e.g. scenes/sweeps/paper280.toml."),
+    spec: Path = typer.Argument(..., help="Sweep spec (TOML), e.g. "
+                                "scenes/sweeps/paper280_lti.toml."),
     out: Path = typer.Option(..., "--out", help="Output folder (parts, manifest, table)."),
     workers: int = typer.Option(None, "--workers", help="Local worker processes "
                                 "(default: all cores)."),
@@ -21,10 +22,10 @@ def sweep(
     keep_records: bool = typer.Option(False, "--keep-records",
                                       help="Also save every test's record under OUT/records."),
 ) -> None:
-    """Run every test of SPEC not yet finished in OUT and write OUT/<name>.parquet.
+    """Run every test of SPEC not yet finished in OUT and write OUT/`<name>`.parquet.
 
-    Resumable: finished batches are kept; re-running skips them. Unstable tests are
-    recorded with their reason.
+    Resumable: finished batches are kept; re-running skips them. Unstable tests are recorded
+    with their reason.
     """
     from dataclasses import replace
 

@@ -30,7 +30,7 @@ def train(
     seed: int = typer.Option(0, "--seed", help="Seed of the split and initialisations."),
     family: list[str] = typer.Option(None, "--family", help="Train only on these families."),
     exclude: list[str] = typer.Option(None, "--exclude", help="Leave these families out."),
-    target: str = typer.Option("e_rel_ref", "--target", help="Target column (target.<name>)."),
+    target: str = typer.Option("e_rel_ref", "--target", help="Target column (`target.<name>`)."),
     plot: Path = typer.Option(None, "--plot", help="Write regression/prediction plots (PNG)."),
     transform: str = typer.Option("log", "--transform",
                                   help="log (default: compress heavy-tailed features and "

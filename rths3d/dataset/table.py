@@ -24,6 +24,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..metrics.features import FEATURE_SETS, SET_1, SET_2, SET_3, TARGETS
+from ..metrics.features import feature_names as _feature_names
 
 FEATURE = "feature."
 TARGET = "target."
@@ -34,10 +35,8 @@ __all__ = ["DEFAULT_TARGET", "FEATURE", "FEATURE_SETS", "PARAM", "SET_1", "SET_2
 
 
 def feature_names(feature_set: int) -> tuple[str, ...]:
-    """Feature names of Table-3 set 1, 2 or 3 (as :mod:`rths3d.metrics.features`)."""
-    if feature_set not in FEATURE_SETS:
-        raise ConfigError("features", feature_set, "must be 1, 2 or 3 (paper Table 3)")
-    return FEATURE_SETS[feature_set]
+    """Feature names of Table-3 set 1, 2 or 3 (an error names the ``features`` option)."""
+    return _feature_names(feature_set, field="features")
 
 
 def training_data(frame: Any, feature_set: int, target: str = DEFAULT_TARGET,

@@ -39,10 +39,10 @@ TARGETS: tuple[str, ...] = ("e_rel_ref", "e_mre_ref", "e_peak_ref", "e_rel_ref_f
 """Reference errors (need z^r); ``e_rel_ref`` is the paper's ANN target."""
 
 
-def feature_names(feature_set: int) -> tuple[str, ...]:
-    """Names of Table-3 feature set 1, 2 or 3."""
+def feature_names(feature_set: int, field: str = "set") -> tuple[str, ...]:
+    """Names of Table-3 feature set 1, 2 or 3; ``field`` names the input in the error."""
     from ..errors import ConfigError
 
     if feature_set not in FEATURE_SETS:
-        raise ConfigError("set", feature_set, "must be 1, 2 or 3 (paper Table 3)")
+        raise ConfigError(field, feature_set, "must be 1, 2 or 3 (paper Table 3)")
     return FEATURE_SETS[feature_set]

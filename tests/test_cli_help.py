@@ -1,0 +1,41 @@
+"""`rths3d … --help`: every word of the help reaches the terminal, paragraphs reflowed."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from rths3d.cli import main
+
+
+def _help(argv, capsys, monkeypatch) -> str:
+    monkeypatch.setenv("COLUMNS", "200")
+    with pytest.raises(SystemExit) as info:
+        main([*argv, "--help"])
+    assert info.value.code == 0
+    return capsys.readouterr().out
+
+
+def _words(text: str) -> str:
+    """The help without the box drawing and the padding of the rich layout."""
+    return re.sub(r"[\s│─╭╮╰╯]+", " ", text)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["sweep"], ["write OUT/<name>.parquet."]),
+    (["train"], ["Target column (target.<name>)."]),
+    (["diagnose"], ["a TOML file with a [bench] table."]),
+    (["benchmark", "rths"], ["(and <name>_trials.png"]),
+])
+def test_help_keeps_bracketed_words(argv, words, capsys, monkeypatch):
+    """Angle and square brackets in a help text survive the markup."""
+    text = _words(_help(argv, capsys, monkeypatch))
+    for w in words:
+        assert w in text, (argv, w)
+
+
+def test_help_reflows_a_docstring_paragraph(capsys, monkeypatch):
+    """A docstring paragraph wrapped in the source fills the terminal's width."""
+    lines = _help(["sweep"], capsys, monkeypatch).splitlines()
+    assert any("Resumable:" in ln and "with their reason." in ln for ln in lines)
