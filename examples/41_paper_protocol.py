@@ -10,7 +10,7 @@
 Usage: ``python examples/41_paper_protocol.py [--out DIR] [--workers N] [--quick]
 [--transform linear|log] [--contact paper280_lti|contact1400_lti|table1_lti]
 [--families families_large|families_wide|families|none] [--splits N] [--topologies 10x10;20x20]
-[--no-bypass] [--sets 1,2,3]``.
+[--no-bypass] [--sets 1,2,3] [--extra experiment.h0,excitation.frequency]``.
 Sweeps are resumable: re-running reuses finished tests in DIR.
 """
 
@@ -74,6 +74,10 @@ def main() -> None:
     ap.add_argument("--sets", default="1,2,3",
                     help="feature sets to train, e.g. '1' (one set per run on long studies; "
                          "the plots use set 2 when trained, else the first)")
+    ap.add_argument("--extra", default="",
+                    help="test parameters added to every feature set as inputs, e.g. "
+                         "'experiment.h0,excitation.frequency,excitation.overtravel' (the "
+                         "loading the paper leaves out; Table-2 and family rows need them too)")
     args = ap.parse_args()
 
     from rths3d.ann import parse_topologies
@@ -82,6 +86,7 @@ def main() -> None:
 
     topologies = parse_topologies(args.topologies)  # before the sweeps: fail fast
     sets = parse_sets(args.sets)
+    extra = tuple(e.strip() for e in args.extra.split(",") if e.strip())
     fs = 2 if 2 in sets else sets[0]  # the set drawn in the figures
 
     out: Path = args.out
@@ -97,7 +102,7 @@ def main() -> None:
                      n_trainings=args.trainings, seed=0, transform=args.transform,
                      split_seeds=tuple(range(args.splits)), bypass=not args.no_bypass,
                      topologies=topologies, feature_sets=sets, models_out=models,
-                     progress=True)
+                     progress=True, extra=extra)
     table = rows_to_markdown(rows)
     print(table)
     print("\nThe paper's Table 4:")
@@ -107,7 +112,8 @@ def main() -> None:
     tag = (f"{args.contact}_{args.families}_{args.transform}" + ("_plain" if args.no_bypass else "")
            + (f"_{args.splits}splits" if args.splits > 1 else "")
            + (f"_{args.topologies.replace(';', '-')}" if args.topologies else "")
-           + ("" if sets == (1, 2, 3) else "_set" + "".join(map(str, sets))))
+           + ("" if sets == (1, 2, 3) else "_set" + "".join(map(str, sets)))
+           + ("_plus-" + "-".join(e.rsplit(".", 1)[-1] for e in extra) if extra else ""))
     (out / f"table4_{tag}.md").write_text(table + "\n")
     (out / f"table4_{tag}.json").write_text(json.dumps([r.as_dict() for r in rows], indent=1))
 
@@ -115,22 +121,24 @@ def main() -> None:
     # ensemble that the protocol trained on split seed 0
     from rths3d.dataset import training_data
 
-    X, y, _ = training_data(lti, fs)
+    X, y, _ = training_data(lti, fs, extra=extra)
     model = models[f"contact_set{fs}"][0]
     mean, std = model.predict(X, return_std=True, warn=False)
     tr, te = model.indices["train"], model.indices["test"]
     save_figures(out / f"fig6_7_contact_lti_set{fs}.png",
                  {"training": (y[tr], mean[tr]), "test": (y[te], mean[te])},
                  spread={"test": std[te]}, title=f"contact, 1-D LTI transfer, feature set {fs}")
-    Xs, ys, _ = training_data(stewart, fs)
+    Xs, ys, _ = training_data(stewart, fs, extra=extra)
     ms, ss = model.predict(Xs, return_std=True, warn=False)
     save_figures(out / f"fig8_stewart_set{fs}.png", {"Stewart platform": (ys, ms)},
                  spread={"Stewart platform": ss}, title="LTI-trained net on the Stewart tests")
-    Xl, yl, _ = training_data(linear, fs)
-    ml, sl = model.predict(Xl, return_std=True, warn=False)
-    save_figures(out / f"fig9_linear_set{fs}.png", {"linear Table 2": (yl, ml)},
-                 spread={"linear Table 2": sl}, title="contact-trained net on the linear system")
-    if families is None:
+    if all(f"param.{e.removeprefix('param.')}" in linear.columns for e in extra):
+        Xl, yl, _ = training_data(linear, fs)
+        ml, sl = model.predict(Xl, return_std=True, warn=False)
+        save_figures(out / f"fig9_linear_set{fs}.png", {"linear Table 2": (yl, ml)},
+                     spread={"linear Table 2": sl},
+                     title="contact-trained net on the linear system")
+    if f"families_set{fs}" not in models:
         print(f"\nwritten: {out / f'table4_{tag}.md'}, plots in {out}")
         return
     # the paper's cure: a net trained on the other families, on the never-seen family

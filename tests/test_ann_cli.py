@@ -73,3 +73,43 @@ def test_cli_bad_input_one_line_exit_2(table, tmp_path) -> None:
     assert p.returncode == 2 and "features" in p.stderr and "Traceback" not in p.stderr
     q = run("predict", str(tmp_path / "none.json"), str(table))
     assert q.returncode == 2 and "model" in q.stderr and "Traceback" not in q.stderr
+
+
+def test_train_extra_parameter_and_predict_a_record(table, tmp_path) -> None:
+    """--extra adds a test parameter as an input (named in the JSON and the model); predict
+    reads it from a table's column or from a record's scene; a bad name is one error line."""
+    frame = pd.read_parquet(table)
+    frame["param.experiment.h0"] = np.linspace(0.002, 0.01, len(frame))  # m
+    frame["param.transfer.compensation"] = "none"
+    path = tmp_path / "with_gap.parquet"
+    frame.to_parquet(path)
+    model = tmp_path / "m.json"
+    p = run("train", str(path), "--features", "3", "--extra", "experiment.h0", "--out",
+            str(model), "--json", "--topologies", "3", "--trainings", "1")
+    assert p.returncode == 0, p.stderr
+    assert json.loads(p.stdout.strip().splitlines()[-1])["extra"] == ["param.experiment.h0"]
+    assert json.loads(model.read_text())["feature_names"][-1] == "param.experiment.h0"
+    q = run("predict", str(model), str(path), "--json")
+    assert q.returncode == 0, q.stderr
+    assert len(json.loads(q.stdout)["prediction"]) == 158
+    # a real (1 s) record: the features from its signals, h0 from its scene
+    rec = tmp_path / "rec.parquet"
+    r = run("run", "paper_contact", "-t", "lti", "--set", "duration=1", "--out", str(rec))
+    assert r.returncode == 0, r.stderr
+    q = run("predict", str(model), str(rec), "--json")
+    assert q.returncode == 0, q.stderr
+    pred = json.loads(q.stdout)
+    assert len(pred["prediction"]) == 1 and np.isfinite(pred["prediction"][0])
+    from rths3d.ann import FidelityANN
+    from rths3d.dataset.runner import record_features
+    from rths3d.record import Record
+
+    feats, net = record_features(Record.load(rec)), FidelityANN.load(model)
+    x = [[feats[n] for n in net.feature_names[:-1]] + [0.005]]  # the scene's h0 (m)
+    assert net.predict(np.array(x), warn=False)[0] == pytest.approx(pred["prediction"][0])
+    for bad, why in (("nope", "not a parameter column"),
+                     ("transfer.compensation", "must be a numeric parameter")):
+        b = run("train", str(path), "--features", "3", "--extra", bad, "--out",
+                str(tmp_path / "b.json"))
+        assert b.returncode == 2 and f"extra: '{bad}'" in b.stderr and why in b.stderr
+        assert "Traceback" not in b.stderr

@@ -87,3 +87,25 @@ def test_progress_bar_names_each_training_run(capsys) -> None:
                       split_seeds=(0, 1))
     assert capsys.readouterr().err == ""
     assert loud[0].members == quiet[0].members
+
+
+def test_extra_parameter_supplies_what_the_features_miss() -> None:
+    """A target that depends on a test parameter the features do not hold: ρ rises above
+    0.99 with the parameter as an extra input, the rows say so, and a table without the
+    parameter (the linear system) is left out."""
+    def with_gap(n: int, seed: int) -> pd.DataFrame:
+        t = table(n, "contact", seed)
+        h0 = np.random.default_rng(seed + 10).uniform(0.002, 0.01, n)  # m
+        t["param.experiment.h0"] = h0
+        t["target.e_rel_ref"] = 0.02 + 0.1 * t["feature.e_rel_track"] + 20.0 * h0
+        return t
+
+    lti, stewart = with_gap(240, 0), with_gap(80, 1)
+    common = dict(n_trainings=2, topologies=((5,),), feature_sets=(3,), transform="linear",
+                  stewart_in_range=False)
+    plain = reproduce(lti, **common)
+    rows = reproduce(lti, stewart, table(40, "linear", 2), extra=("experiment.h0",), **common)
+    assert plain[0].r_eval_median < 0.9
+    assert [r.system for r in rows] == ["contact, 1-D LTI transfer (vRTHS) + experiment.h0",
+                                        "contact, MuJoCo Stewart platform + experiment.h0"]
+    assert min(rows[0].members) > 0.99 and rows[1].r_eval_worst > 0.99

@@ -200,7 +200,8 @@ def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any 
               feature_sets: Sequence[int] = (1, 2, 3), transform: str = "log",
               split_seeds: Sequence[int] | None = None, bypass: bool = True,
               stewart_in_range: bool = True, progress: bool = False,
-              models_out: dict[str, list[FidelityANN]] | None = None) -> list[ProtocolRow]:
+              models_out: dict[str, list[FidelityANN]] | None = None,
+              extra: Sequence[str] = ()) -> list[ProtocolRow]:
     """Run the whole protocol on sweep tables (DataFrames) and return the result rows.
 
     ``contact_lti``: the paper's contact tests with the 1-D LTI transfer (training data);
@@ -214,9 +215,20 @@ def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any 
     large sweeps).
     ``models_out``: a dict that receives the trained estimators, one per split seed, under
     ``"contact_set<N>"`` and ``"families_set<N>"`` (N = feature set), for plots and reuse.
+    ``extra``: test parameters added to every feature set as inputs (e.g. ``experiment.h0``,
+    see :func:`rths3d.dataset.training_data`); the system names then end in ``+ <names>``,
+    and the linear and families parts run only on tables that hold those parameters.
     """
-    from ..dataset.table import training_data
+    from ..dataset.table import PARAM, training_data
 
+    def holds(frame: Any) -> bool:
+        return all((e if e.startswith(PARAM) else PARAM + e) in frame.columns for e in extra)
+
+    plus = (" + " + ", ".join(e.removeprefix(PARAM) for e in extra)) if extra else ""
+    if linear is not None and not holds(linear):
+        linear = None
+    if families is not None and not holds(families):
+        families = None
     seeds = tuple(split_seeds) if split_seeds else (seed,)
 
     def train(X: Any, y: np.ndarray, system: str, fs: int, note: str
@@ -229,8 +241,8 @@ def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any 
     rows: list[ProtocolRow] = []
     models: dict[int, list[FidelityANN]] = {}
     for fs in feature_sets:
-        X, y, _ = training_data(contact_lti, fs)
-        model, row = train(X, y, "contact, 1-D LTI transfer (vRTHS)", fs,
+        X, y, _ = training_data(contact_lti, fs, extra=extra)
+        model, row = train(X, y, "contact, 1-D LTI transfer (vRTHS)" + plus, fs,
                            "trained here; ρ eval = test set")
         models[fs] = model
         if models_out is not None:
@@ -238,34 +250,36 @@ def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any 
         rows.append(row)
     if contact_stewart is not None:
         for fs in feature_sets:
-            X, y, _ = training_data(contact_stewart, fs)
-            rows.append(apply_and_score(models[fs], X, y, "contact, MuJoCo Stewart platform",
+            X, y, _ = training_data(contact_stewart, fs, extra=extra)
+            rows.append(apply_and_score(models[fs], X, y,
+                                        "contact, MuJoCo Stewart platform" + plus,
                                         fs, note="LTI-trained net applied to all samples"))
             keep = in_range(models[fs], X)
             if stewart_in_range and 2 < keep.sum() < len(y):
                 rows.append(apply_and_score(
-                    models[fs], X[keep], y[keep], "Stewart, inside the training ranges", fs,
+                    models[fs], X[keep], y[keep], "Stewart, inside the training ranges" + plus,
+                    fs,
                     note=f"{int(keep.sum())} of {len(y)} samples: no feature extrapolated"))
     if linear is not None:
         for fs in feature_sets:
-            X, y, _ = training_data(linear, fs)
+            X, y, _ = training_data(linear, fs, extra=extra)
             keep = in_range(models[fs], X)
             rows.append(apply_and_score(models[fs], X, y, "linear Table 2 (contact-trained)",
                                         fs, note=f"all samples ({int(keep.sum())} in range)"))
     if families is not None:
         for fs in feature_sets:
-            X, y, _ = training_data(families, fs, exclude=[left_out])
+            X, y, _ = training_data(families, fs, exclude=[left_out], extra=extra)
             model, row = train(X, y, f"families without {left_out!r}", fs,
                                "test set of the training families")
             if models_out is not None:
                 models_out[f"families_set{fs}"] = model
             rows.append(row)
-            Xo, yo, _ = training_data(families, fs, families=[left_out])
+            Xo, yo, _ = training_data(families, fs, families=[left_out], extra=extra)
             if len(yo) > 2:
                 rows.append(apply_and_score(model, Xo, yo, f"family {left_out!r} (left out)",
                                             fs, note="never seen in training"))
             if linear is not None:
-                Xl, yl, _ = training_data(linear, fs)
+                Xl, yl, _ = training_data(linear, fs, extra=extra)
                 rows.append(apply_and_score(model, Xl, yl, "linear Table 2 (families-trained)",
                                             fs, note=f"{left_out!r} family left out"))
     return rows

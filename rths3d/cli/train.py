@@ -30,6 +30,9 @@ def train(
     seed: int = typer.Option(0, "--seed", help="Seed of the split and initialisations."),
     family: list[str] = typer.Option(None, "--family", help="Train only on these families."),
     exclude: list[str] = typer.Option(None, "--exclude", help="Leave these families out."),
+    extra: list[str] = typer.Option(None, "--extra",
+                                    help="A test parameter as a further input, e.g. "
+                                         "experiment.h0 (repeatable; beyond Table 3)."),
     target: str = typer.Option("e_rel_ref", "--target", help="Target column (`target.<name>`)."),
     plot: Path = typer.Option(None, "--plot", help="Write regression/prediction plots (PNG)."),
     transform: str = typer.Option("log", "--transform",
@@ -46,11 +49,12 @@ def train(
     """
     from ..ann import FidelityANN, parse_topologies
     from ..dataset.store import read_table
-    from ..dataset.table import training_data
+    from ..dataset.table import PARAM, training_data
     from ..errors import ConfigError
 
     frame = read_table(table)
-    X, y, _rows = training_data(frame, features, target, family or None, exclude or None)
+    X, y, _rows = training_data(frame, features, target, family or None, exclude or None,
+                                extra=extra or ())
     if len(y) < 10:
         raise ConfigError("table", f"{len(y)} usable rows", "need at least 10 finished tests")
     model = FidelityANN(topologies=parse_topologies(topologies), n_trainings=trainings,
@@ -62,6 +66,7 @@ def train(
     res = {"r_train": sc["r_train"], "r_val": sc["r_val"], "r_test": sc["r_test"],
            "mse": sc["mse"], "mse_test": sc["mse_test"], "topology": sc["topology"],
            "n_samples": int(len(y)), "features": features, "model": str(out),
+           "extra": [c for c in X.columns if c.startswith(PARAM)],
            "r_test_members": _med_worst(sc["members_r_test"]),
            "r_train_members": _med_worst(sc["members_r_train"]),
            "search": [{"hidden": list(s.hidden), "mean_val_mse": s.mean_val_mse}
@@ -95,7 +100,7 @@ def predict(
 
     from ..ann import ExtrapolationWarning, FidelityANN, pearson_rho
     from ..dataset.store import read_table
-    from ..dataset.table import FEATURE, TARGET
+    from ..dataset.table import FEATURE, PARAM, TARGET, input_column
 
     net = FidelityANN.load(model)
     frame = read_table(data)
@@ -103,11 +108,16 @@ def predict(
         from ..dataset.runner import record_features
         from ..record import Record
 
-        feats = record_features(Record.load(data))
+        rec = Record.load(data)
+        row = {FEATURE + k: v for k, v in record_features(rec).items()}
+        # a model with parameter inputs reads them from the record's scene
+        for k, v in (rec.meta.get("params") or {}).items():
+            if isinstance(v, int | float):
+                row[PARAM + k] = float(v)
         import pandas as pd
 
-        frame = pd.DataFrame([{FEATURE + k: v for k, v in feats.items()}])
-    cols = [FEATURE + n for n in net.feature_names]
+        frame = pd.DataFrame([row])
+    cols = [input_column(n) for n in net.feature_names]
     missing = [c for c in cols if c not in frame.columns]
     if missing:
         from ..errors import ConfigError

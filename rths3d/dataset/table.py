@@ -18,6 +18,7 @@ Column families of a sweep table (one row per test):
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -31,7 +32,7 @@ TARGET = "target."
 PARAM = "param."
 DEFAULT_TARGET = "e_rel_ref"
 __all__ = ["DEFAULT_TARGET", "FEATURE", "FEATURE_SETS", "PARAM", "SET_1", "SET_2", "SET_3",
-           "TARGET", "TARGETS", "feature_names", "training_data"]
+           "TARGET", "TARGETS", "feature_names", "input_column", "training_data"]
 
 
 def feature_names(feature_set: int) -> tuple[str, ...]:
@@ -39,16 +40,35 @@ def feature_names(feature_set: int) -> tuple[str, ...]:
     return _feature_names(feature_set, field="features")
 
 
+def input_column(name: str) -> str:
+    """Table column of a model input: a measure ``e_rel_track`` → ``feature.e_rel_track``; a
+    test parameter keeps its column name (``param.experiment.h0``)."""
+    return name if name.startswith(PARAM) else FEATURE + name
+
+
 def training_data(frame: Any, feature_set: int, target: str = DEFAULT_TARGET,
-                  families: list[str] | None = None, exclude: list[str] | None = None
-                  ) -> tuple[Any, np.ndarray, Any]:
+                  families: list[str] | None = None, exclude: list[str] | None = None,
+                  extra: Sequence[str] = ()) -> tuple[Any, np.ndarray, Any]:
     """Features X (DataFrame, columns = feature names), target y and the kept rows.
 
     Keeps tests with status ``ok`` and finite features and target; optionally only the
-    given families or all but the excluded ones.
+    given families or all but the excluded ones. ``extra`` adds test parameters known before
+    the test as inputs beyond the Table-3 set, e.g. ``experiment.h0`` (the contact gap, m):
+    their X columns keep the table's name (``param.experiment.h0``).
     """
-    names = feature_names(feature_set)
-    cols = [FEATURE + n for n in names]
+    names = list(feature_names(feature_set))
+    for e in extra:
+        p = e if e.startswith(PARAM) else PARAM + e
+        if p not in frame.columns:
+            raise ConfigError("extra", e, "not a parameter column of this table "
+                              f"(e.g. {PARAM}experiment.h0)")
+        from pandas.api.types import is_bool_dtype, is_numeric_dtype
+
+        if not (is_numeric_dtype(frame[p]) or is_bool_dtype(frame[p])):
+            raise ConfigError("extra", e, "must be a numeric parameter (an input of the net)")
+        if p not in names:
+            names.append(p)
+    cols = [input_column(n) for n in names]
     missing = [c for c in cols + [TARGET + target] if c not in frame.columns]
     if missing:
         raise ConfigError("table", missing[0], "column missing (is this a sweep table?)")
@@ -64,5 +84,5 @@ def training_data(frame: Any, feature_set: int, target: str = DEFAULT_TARGET,
     ok = np.isfinite(x).all(axis=1) & np.isfinite(y)
     rows = rows[ok]
     X = rows[cols].copy()
-    X.columns = list(names)
+    X.columns = names
     return X, y[ok], rows
