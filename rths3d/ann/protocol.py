@@ -219,10 +219,10 @@ def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any 
     see :func:`rths3d.dataset.training_data`); the system names then end in ``+ <names>``,
     and the linear and families parts run only on tables that hold those parameters.
     """
-    from ..dataset.table import PARAM, training_data
+    from ..dataset.table import PARAM, param_column, training_data
 
     def holds(frame: Any) -> bool:
-        return all((e if e.startswith(PARAM) else PARAM + e) in frame.columns for e in extra)
+        return all(param_column(e) in frame.columns for e in extra)
 
     plus = (" + " + ", ".join(e.removeprefix(PARAM) for e in extra)) if extra else ""
     if linear is not None and not holds(linear):

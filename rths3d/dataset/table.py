@@ -32,12 +32,18 @@ TARGET = "target."
 PARAM = "param."
 DEFAULT_TARGET = "e_rel_ref"
 __all__ = ["DEFAULT_TARGET", "FEATURE", "FEATURE_SETS", "PARAM", "SET_1", "SET_2", "SET_3",
-           "TARGET", "TARGETS", "feature_names", "input_column", "training_data"]
+           "TARGET", "TARGETS", "feature_names", "input_column", "param_column",
+           "training_data"]
 
 
 def feature_names(feature_set: int) -> tuple[str, ...]:
     """Feature names of Table-3 set 1, 2 or 3 (an error names the ``features`` option)."""
     return _feature_names(feature_set, field="features")
+
+
+def param_column(name: str) -> str:
+    """Table column of a test parameter: ``experiment.h0`` → ``param.experiment.h0``."""
+    return name if name.startswith(PARAM) else PARAM + name
 
 
 def input_column(name: str) -> str:
@@ -58,7 +64,7 @@ def training_data(frame: Any, feature_set: int, target: str = DEFAULT_TARGET,
     """
     names = list(feature_names(feature_set))
     for e in extra:
-        p = e if e.startswith(PARAM) else PARAM + e
+        p = param_column(e)
         if p not in frame.columns:
             raise ConfigError("extra", e, "not a parameter column of this table "
                               f"(e.g. {PARAM}experiment.h0)")
