@@ -62,14 +62,15 @@ def training_data(frame: Any, feature_set: int, target: str = DEFAULT_TARGET,
     the test as inputs beyond the Table-3 set, e.g. ``experiment.h0`` (the contact gap, m):
     their X columns keep the table's name (``param.experiment.h0``).
     """
+    from pandas.api.types import is_bool_dtype, is_numeric_dtype
+
     names = list(feature_names(feature_set))
     for e in extra:
         p = param_column(e)
         if p not in frame.columns:
-            raise ConfigError("extra", e, "not a parameter column of this table "
-                              f"(e.g. {PARAM}experiment.h0)")
-        from pandas.api.types import is_bool_dtype, is_numeric_dtype
-
+            have = [c.removeprefix(PARAM) for c in frame.columns if c.startswith(PARAM)]
+            raise ConfigError("extra", e, "not a parameter column of this table (it has: "
+                              f"{', '.join(have) or 'none'})")
         if not (is_numeric_dtype(frame[p]) or is_bool_dtype(frame[p])):
             raise ConfigError("extra", e, "must be a numeric parameter (an input of the net)")
         if p not in names:
