@@ -134,7 +134,7 @@ def main() -> None:
     save_figures(out / f"fig8_stewart_set{fs}.png", {"Stewart platform": (ys, ms)},
                  spread={"Stewart platform": ss}, title="LTI-trained net on the Stewart tests")
     if all(param_column(e) in linear.columns for e in extra):
-        Xl, yl, _ = training_data(linear, fs)
+        Xl, yl, _ = training_data(linear, fs, extra=extra)
         ml, sl = model.predict(Xl, return_std=True, warn=False)
         save_figures(out / f"fig9_linear_set{fs}.png", {"linear Table 2": (yl, ml)},
                      spread={"linear Table 2": sl},
