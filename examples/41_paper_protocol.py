@@ -120,7 +120,7 @@ def main() -> None:
     # regression + prediction plots like the paper's Figs. 6-9: the set-2 (else first set's)
     # ensemble that the protocol trained on split seed 0
     from rths3d.dataset import training_data
-    from rths3d.dataset.table import param_column
+    from rths3d.dataset.table import has_params
 
     X, y, _ = training_data(lti, fs, extra=extra)
     model = models[f"contact_set{fs}"][0]
@@ -133,7 +133,7 @@ def main() -> None:
     ms, ss = model.predict(Xs, return_std=True, warn=False)
     save_figures(out / f"fig8_stewart_set{fs}.png", {"Stewart platform": (ys, ms)},
                  spread={"Stewart platform": ss}, title="LTI-trained net on the Stewart tests")
-    if all(param_column(e) in linear.columns for e in extra):
+    if has_params(linear, extra):
         Xl, yl, _ = training_data(linear, fs, extra=extra)
         ml, sl = model.predict(Xl, return_std=True, warn=False)
         save_figures(out / f"fig9_linear_set{fs}.png", {"linear Table 2": (yl, ml)},

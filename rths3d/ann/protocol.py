@@ -219,15 +219,12 @@ def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any 
     see :func:`rths3d.dataset.training_data`); the system names then end in ``+ <names>``,
     and the linear and families parts run only on tables that hold those parameters.
     """
-    from ..dataset.table import PARAM, param_column, training_data
-
-    def holds(frame: Any) -> bool:
-        return all(param_column(e) in frame.columns for e in extra)
+    from ..dataset.table import PARAM, has_params, training_data
 
     plus = (" + " + ", ".join(e.removeprefix(PARAM) for e in extra)) if extra else ""
-    if linear is not None and not holds(linear):
+    if linear is not None and not has_params(linear, extra):
         linear = None
-    if families is not None and not holds(families):
+    if families is not None and not has_params(families, extra):
         families = None
     seeds = tuple(split_seeds) if split_seeds else (seed,)
 

@@ -32,8 +32,8 @@ TARGET = "target."
 PARAM = "param."
 DEFAULT_TARGET = "e_rel_ref"
 __all__ = ["DEFAULT_TARGET", "FEATURE", "FEATURE_SETS", "PARAM", "SET_1", "SET_2", "SET_3",
-           "TARGET", "TARGETS", "feature_names", "input_column", "param_column",
-           "training_data"]
+           "TARGET", "TARGETS", "feature_names", "has_params", "input_column",
+           "param_column", "training_data"]
 
 
 def feature_names(feature_set: int) -> tuple[str, ...]:
@@ -44,6 +44,12 @@ def feature_names(feature_set: int) -> tuple[str, ...]:
 def param_column(name: str) -> str:
     """Table column of a test parameter: ``experiment.h0`` → ``param.experiment.h0``."""
     return name if name.startswith(PARAM) else PARAM + name
+
+
+def has_params(frame: Any, names: Sequence[str]) -> bool:
+    """Whether a sweep table holds every named test parameter (``experiment.h0`` or
+    ``param.experiment.h0``)."""
+    return all(param_column(n) in frame.columns for n in names)
 
 
 def input_column(name: str) -> str:
