@@ -11,8 +11,9 @@ features miss: the loading" in docs/ann.md.
 Usage: ``python examples/43_feature_probe.py TABLE [--features 1,2,3] [--extra
 'experiment.h0;experiment.h0,excitation.frequency,excitation.overtravel'] [--test 0.15]
 [--seed 0]``. ``--extra`` is a ';'-separated list of groups, each a ','-separated list of
-parameter names; every group is tried on top of each feature set. Prints a Markdown table and
-one JSON line.
+parameter names; every group is tried on top of each feature set. A row keeps the tests whose
+inputs are all finite, so compare rows of one table whose parameters every test has (as in a
+single-family sweep). Prints a Markdown table and one JSON line.
 """
 
 from __future__ import annotations
