@@ -58,8 +58,9 @@ def main() -> None:
         groups = [tuple(n.strip() for n in g.split(",") if n.strip())
                   for g in args.extra.split(";") if g.strip()]
         frame = read_table(args.table)
-        for extra in groups:  # name errors before the first fit, not after it
-            training_data(frame.iloc[:1], sets[0], extra=extra)
+        for s in sets:  # name errors before the first fit, not after it
+            for extra in groups or [()]:
+                training_data(frame.iloc[:1], s, extra=extra)
         rows = []
         for s in sets:
             for extra in [(), *groups]:
