@@ -13,6 +13,17 @@ Run ``python benchmarks/sweep.py [--quick]``; prints ONE JSON line:
     wall time of the full Table-1 grid (13230 tests) with the 1-D LTI transfer (floor < 300 s).
     With ``--quick`` 512 tests in 2 batches of 256 (the full sweep's batch size) are timed and
     scaled.
+``paper280_lti_s``
+    wall time of the paper's 280-test contact sweep with the 1-D LTI transfer (2 workers);
+    its transfer settings are drawn per test, and the loop steps them together. With
+    ``--quick`` 120 tests of one setting, not scaled (the LM-vs-Adam data).
+``lti_mixed_batch_speedup``
+    side by side, one process: ``lti_mixed_batch_tests`` tests spread over that sweep (one
+    batch's worth, ``lti_transfer_settings`` transfer settings among them) run as one batch,
+    against the same tests run one batch per transfer setting (how the sweep ran before the
+    LTI path took its actuator settings per test); time per-setting / time mixed.
+    ``lti_mixed_batch_max_diff``: the largest difference of e_rel,ref between the two
+    (rounding).
 ``lm_over_adam_time``
     (LM wall time to a validation MSE) / (Adam wall time to the same MSE), the MSE being the
     median of LM's best over 5 seeds, restarts charged (see :func:`lm_vs_adam`); on the
@@ -63,6 +74,36 @@ def _subset(spec, n: int, n_batches: int = 2):
                             n_sample=f.n_sample if sample else 0))
     return replace(spec, families=tuple(fams), name=f"{spec.name}_sub{n}",
                    batch_size=max(1, math.ceil(n / n_batches)))
+
+
+def mixed_vs_per_setting(spec, n: int) -> dict:
+    """Time ``n`` tests of ``spec`` run as one batch and as one batch per transfer setting."""
+    import itertools
+
+    import numpy as np
+
+    from rths3d.dataset.runner import run_rows
+
+    every = spec.tests()  # ordered by transfer setting: take every m-th test for a spread
+    tests = every[::max(1, len(every) // n)][:n]
+
+    def setting(t):
+        return json.dumps(sorted((k, v) for k, v in t["params"].items()
+                                 if k.startswith("transfer.")))
+
+    run_rows(spec, tests[:2])  # imports and caches out of the timing
+    t0 = time.perf_counter()
+    mixed = run_rows(spec, tests)
+    t1 = time.perf_counter()
+    groups = [list(g) for _, g in itertools.groupby(sorted(tests, key=setting), key=setting)]
+    per = {r["test_id"]: r for g in groups for r in run_rows(spec, g)}
+    t2 = time.perf_counter()
+    diff = [abs(r["target.e_rel_ref"] - per[r["test_id"]]["target.e_rel_ref"])
+            for r in mixed if r["status"] == "ok"]
+    return {"lti_mixed_batch_speedup": (t2 - t1) / (t1 - t0),
+            "lti_mixed_batch_s": t1 - t0, "lti_per_setting_batches_s": t2 - t1,
+            "lti_mixed_batch_tests": len(tests), "lti_transfer_settings": len(groups),
+            "lti_mixed_batch_max_diff": float(np.max(diff)) if diff else math.nan}
 
 
 def lm_vs_adam(X, y, seeds=(0, 1, 2, 3, 4), hidden=(5,), adam_cap_s: float = 30.0) -> dict:
@@ -167,9 +208,11 @@ def main() -> None:
         res["table1_grid_tests"] = n_grid
         # LM vs Adam on contact data (the 280-test LTI subset of the paper)
         paper = load_spec(SWEEPS / "paper280_lti.toml")
+        res.update(mixed_vs_per_setting(paper, 12 if args.quick else paper.batch_size))
         if args.quick:
             paper = _subset(paper, 120)
-        _, frame = _timed_sweep(paper, tmp / "paper", 2)
+        tp, frame = _timed_sweep(paper, tmp / "paper", 2)
+        res["paper280_lti_s"] = tp
         X, y, _ = training_data(frame, 2)
         res.update(lm_vs_adam(X, y, seeds=(0, 1, 2, 3, 4),
                               adam_cap_s=10.0 if args.quick else 30.0))

@@ -32,7 +32,14 @@ import numpy as np
 
 from .errors import ConfigError, SafetyStop
 from .record import DOFS, Record, RecordBuffer
-from .scene import STEWART_PER_TEST_SERVO, Scene, apply_overrides, scene_from_dict
+from .scene import (
+    ACTUATOR_PER_TEST,
+    PER_TEST_COMPENSATION,
+    STEWART_PER_TEST_SERVO,
+    Scene,
+    apply_overrides,
+    scene_from_dict,
+)
 
 if TYPE_CHECKING:
     from .numerical import NumericalFactory
@@ -597,8 +604,11 @@ def _group_key(s: Scene) -> tuple:
     # specimens) the part's model; numerical parameters may differ freely. On the Stewart
     # platform the parts' parameters and the leg-servo settings may differ too (per-test
     # models of one structure): only the part kind, the actuator delay and whether the servo
-    # has a lag change the model's structure.
+    # has a lag change the model's structure. On the delay and LTI paths the actuator model, its
+    # delay and a velocity compensation (or none) are per test as well.
     tr = s.transfer
+    if tr.kind in ("delay", "lti") and tr.compensation in PER_TEST_COMPENSATION:
+        tr = replace(tr, compensation="", **{k: None for k in ACTUATOR_PER_TEST})
     if tr.kind == "stewart":
         tr = replace(tr, timeconst=float(tr.timeconst > 0),
                      **dict.fromkeys(STEWART_PER_TEST_SERVO, 0.0))

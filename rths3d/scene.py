@@ -169,6 +169,14 @@ STEWART_PER_TEST_SERVO = ("kp", "kv", "velocity_ff")
 """Leg-servo settings that Stewart tests stepped together may vary test by test (per-test
 platform models of one structure); ``timeconst`` may too, as long as all are > 0 or all 0."""
 
+ACTUATOR_PER_TEST = ("delay", "num", "den", "comp_time", "kp", "kv", "timeconst", "velocity_ff")
+"""Transfer settings that tests of the ``delay`` and ``lti`` transfer systems stepped together
+may vary test by test (per-test delay lines and actuator models); ``compensation`` may too,
+between ``none`` and ``velocity`` (a per-test compensation time, 0 for none)."""
+
+PER_TEST_COMPENSATION = ("none", "velocity")
+"""Compensation kinds that ``delay``/``lti`` tests stepped together may mix."""
+
 
 @dataclass(frozen=True)
 class TransferConfig:

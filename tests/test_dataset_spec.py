@@ -63,8 +63,8 @@ def test_batches_are_fixed_chunks() -> None:
 
 
 def test_batches_never_straddle_two_transfer_settings() -> None:
-    """Each batch holds one transfer setting, at most batch_size tests, every test once."""
-    sample = {"n": 1, "transfer.delay": {"choice": [1e-3, 4e-3]},
+    """Each batch holds one setting the loop steps together, at most batch_size tests."""
+    sample = {"n": 1, "transfer.substeps": {"choice": [1, 2]},
               "transfer.velocity_ff": {"choice": [True, False]}}
     spec = parse_spec(spec_dict(subset=40, transfer="lti", sample=sample))
     b = batches_of(spec)
@@ -72,13 +72,35 @@ def test_batches_never_straddle_two_transfer_settings() -> None:
     assert sorted(x["test_id"] for _, t in b for x in t) == \
         sorted(x["test_id"] for x in spec.tests())
     for _, t in b:
-        assert len({(x["params"]["transfer.delay"], x["params"]["transfer.velocity_ff"])
-                     for x in t}) == 1
-    # four settings of ~10 tests: two balanced batches each, not 7 + 3
-    assert len(b) == 8 and min(len(t) for _, t in b) >= 4
-    # the Stewart platform steps tests with different servo feed-forward together
-    stew = batches_of(parse_spec(spec_dict(subset=40, transfer="stewart", sample=sample)))
+        assert len({x["params"]["transfer.substeps"] for x in t}) == 1
+    # two settings of ~20 tests, feed-forward per test: three balanced batches each, not 7+7+6
+    # and a straggler
+    assert len(b) == 6 and min(len(t) for _, t in b) >= 6
+    assert any(len({x["params"]["transfer.velocity_ff"] for x in t}) == 2 for _, t in b)
+
+
+def test_lti_batches_mix_actuator_settings() -> None:
+    """On the LTI path delay, feed-forward, lag and compensation none/velocity are per test;
+    polynomial compensation is a setting of its own."""
+    sample = {"n": 1, "transfer.delay": {"choice": [1e-3, 4e-3]},
+              "transfer.velocity_ff": {"choice": [True, False]},
+              "transfer.timeconst": {"choice": [0.0, 3e-3]},
+              "transfer.compensation": {"choice": ["none", "velocity", "polynomial"]}}
+    spec = parse_spec(spec_dict(subset=60, transfer="lti", sample=sample))
+    b = batches_of(spec)
+    assert sorted(x["test_id"] for _, t in b for x in t) == \
+        sorted(x["test_id"] for x in spec.tests())
+    n_poly = sum(x["params"]["transfer.compensation"] == "polynomial" for x in spec.tests())
+    assert len(b) == -(-n_poly // 7) + -(-(60 - n_poly) // 7)
+    for _, t in b:
+        assert len({x["params"]["transfer.compensation"] == "polynomial" for x in t}) == 1
+    assert any(len({x["params"]["transfer.delay"] for x in t}) == 2 for _, t in b)
+    # the Stewart platform steps feed-forward together, not the actuator delay
+    stew = batches_of(parse_spec(spec_dict(subset=40, transfer="stewart", sample={
+        "n": 1, "transfer.delay": {"choice": [1e-3, 4e-3]},
+        "transfer.velocity_ff": {"choice": [True, False]}})))
     assert len(stew) == 6
+    assert all(len({x["params"]["transfer.delay"] for x in t}) == 1 for _, t in stew)
     assert any(len({x["params"]["transfer.velocity_ff"] for x in t}) == 2 for _, t in stew)
 
 

@@ -381,6 +381,46 @@ def test_stewart_delay_and_part_kind_split_groups():
     assert a != _group_key(scene_with(sc, {"transfer.delay": 0.001, "transfer.timeconst": 0.0}))
 
 
+def test_lti_tests_with_different_actuators_step_together():
+    """LTI tests differing in actuator delay, servo lag, feed-forward and compensation (none /
+    velocity) form one group and each reproduces its own run, with its own predicted delay;
+    polynomial compensation and the sensor split groups."""
+    from rths3d.loop import _group_key, scene_with
+
+    sc = load_scene(SCENES / "paper_contact.toml", ["duration=1.5", "experiment.h0=0.002"])
+    sets = [{"transfer.delay": 1e-3, "numerical.k": 5e3},
+            {"transfer.delay": 8.5e-3, "transfer.compensation": "velocity",
+             "transfer.comp_time": 4e-3, "numerical.k": 2e4},
+            {"transfer.delay": 4e-3, "transfer.velocity_ff": False, "transfer.timeconst": 0.0},
+            {"transfer.delay": 4e-3, "transfer.timeconst": 6e-3, "transfer.compensation":
+             "velocity", "transfer.comp_time": 8e-3, "numerical.k": 1e5}]
+    scenes = [scene_with(sc, ps) for ps in sets]
+    key = _group_key(scenes[0])
+    assert all(_group_key(s) == key for s in scenes)
+    assert _group_key(scene_with(sc, {"transfer.compensation": "polynomial",
+                                      "transfer.comp_time": 4e-3})) != key
+    assert _group_key(scene_with(sc, {"sensor.kind": "first_order",
+                                      "sensor.time_constant": 1e-3})) != key
+    from rths3d.transfer import build_transfer
+    from rths3d.transfer.actuators import PerTestDelayLine, PerTestLTIActuator
+
+    tr = build_transfer(scenes[0], 4, scenes=scenes)
+    assert isinstance(tr.lti, PerTestLTIActuator) and isinstance(tr.delay_line, PerTestDelayLine)
+    batch = run_batch(sc, sets)
+    for s, rb in zip(scenes, batch, strict=True):
+        r1 = run(s)
+        # equal to rounding: the single run is unrolled floats, and the contact event
+        # amplifies rounding in the reference (batched with the others or alone) to ~1e-12 m
+        for c, tol in (("z_cmd.z", 1e-10), ("z_meas.z", 1e-10), ("f_meas.z", 1e-10),
+                       ("z_ref.z", 1e-8)):
+            x = r1.record.columns[c]
+            np.testing.assert_allclose(rb.record.columns[c], x, rtol=0,
+                                       atol=tol * np.max(np.abs(x)), err_msg=c)
+        assert rb.record.meta["transfer_meta"] == pytest.approx(r1.record.meta["transfer_meta"])
+    delays = [r.record.meta["transfer_meta"]["predicted_delay"] for r in batch]
+    assert len({round(d, 9) for d in delays}) == 4 and max(delays) > 0.01
+
+
 def test_stopped_test_in_batch_leaves_the_others_unchanged():
     """A test that diverges inside a batch stops with the same reason and row as alone, and
     its neighbours run on exactly as single runs (its leftover state trips no stop)."""

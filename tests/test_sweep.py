@@ -74,6 +74,27 @@ def test_table_has_parameters_features_targets_status(reference_table) -> None:
     assert np.corrcoef(d, e)[0, 1] > 0.5
 
 
+def test_table_rows_follow_the_spec_order_whatever_the_batches(tiny_spec, tmp_path) -> None:
+    """Tests with different actuator delays share batches, tests with different LTI substeps do
+    not; the batches then run out of the spec's order, and the table still follows it."""
+    from rths3d.dataset import batches_of
+
+    p = tmp_path / "mixed.toml"
+    p.write_text(tiny_spec.read_text().replace(
+        '"transfer.delay" = { choice = [2e-3, 10e-3] }',
+        '"transfer.delay" = { choice = [2e-3, 10e-3] }\n"transfer.substeps" = { choice = [1, 2] }'))
+    spec = load_spec(p)
+    order = [t["test_id"] for t in spec.tests()]
+    batches = batches_of(spec)
+    assert [t["test_id"] for _, b in batches for t in b] != order
+    for _, b in batches:
+        assert len({t["params"]["transfer.substeps"] for t in b}) == 1
+    assert any(len({t["params"]["transfer.delay"] for t in b}) == 2 for _, b in batches)
+    table = run_sweep(spec, tmp_path / "out", workers=1, progress=False)
+    assert list(table["test_id"]) == order
+    assert list(pd.read_parquet(tmp_path / "out" / "tiny.parquet")["test_id"]) == order
+
+
 def test_rerun_skips_finished_work(tiny_spec, tmp_path) -> None:
     """A second run of a finished sweep computes nothing and returns the same table."""
     spec = load_spec(tiny_spec)

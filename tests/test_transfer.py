@@ -9,6 +9,7 @@ import pytest
 import scipy.signal
 
 from rths3d.transfer import Compensator, DelayLine, LTIActuator, SensorModel
+from rths3d.transfer.actuators import PerTestDelayLine, PerTestLTIActuator
 
 
 def test_delay_line_integer_and_fractional():
@@ -20,6 +21,56 @@ def test_delay_line_integer_and_fractional():
     d = DelayLine(1, 1, 2.5e-3, 1e-3)
     y = np.array([d(np.array([[v]]))[0, 0] for v in u])
     np.testing.assert_allclose(y[4:], u[4:] - 2.5)
+
+
+def test_per_test_delay_line_equals_one_delay_line_per_test():
+    """Per-test delays (integer, fractional, zero) give exactly each test's own DelayLine."""
+    delays, dt = [3e-3, 2.5e-3, 0.0, 12.25e-3], 1e-3
+    per = PerTestDelayLine(4, 2, delays, dt)
+    own = [DelayLine(1, 2, d, dt) for d in delays]
+    u = np.random.default_rng(0).standard_normal((40, 4, 2))
+    for n in range(40):
+        y = per(u[n]).copy()
+        for k in range(4):
+            np.testing.assert_array_equal(y[k], own[k](u[n][k:k + 1])[0])
+    per.reset()
+    y = per(u[0])  # τ > 0 starts from 0 again; τ = 0 passes u
+    assert not y[[0, 1, 3]].any()
+    np.testing.assert_array_equal(y[2], u[0][2])
+
+
+def test_per_test_lti_equals_one_actuator_per_test():
+    """Models of different order (1st, 2nd, 3rd with feedthrough) stepped together equal
+    their own LTIActuators to rounding."""
+    w = 2 * math.pi * 40
+    models = [([w * w], [1, 1.2 * w, w * w]), ([50.0], [1, 50.0]),
+              ([1e-3, 2.0, 3e4], [1e-4, 1.0, 2e2, 3e4])]
+    dt = 1e-3
+    per = PerTestLTIActuator(3, 2, models, dt)
+    own = [LTIActuator(1, 2, num, den, dt) for num, den in models]
+    assert per.ns == 3 and [a.ns for a in own] == [2, 1, 3]
+    u = np.random.default_rng(2).standard_normal((300, 3, 2))
+    for n in range(300):
+        y = per(u[n]).copy()
+        for k in range(3):
+            np.testing.assert_allclose(y[k], own[k](u[n][k:k + 1])[0], rtol=1e-13, atol=1e-15)
+    per.reset()
+    assert np.array_equal(per(np.zeros((3, 2))), np.zeros((3, 2)))
+    # each test keeps its own low-frequency delay
+    d = per.delay_estimates()
+    assert d == pytest.approx([a.delay_estimate() for a in own]) and len(set(d)) == 3
+
+
+def test_per_test_compensation_time_equals_one_compensator_per_test():
+    """A per-test τ_c (0 = none) gives exactly z + τ_c ż per test; polynomial stays shared."""
+    z, zd = np.array([[1.0], [2.0], [3.0]]), np.array([[-0.5], [0.25], [4.0]])
+    per = Compensator(3, 1, "velocity", [0.0, 4e-3, 1e-2], 1e-3)
+    out = per(z, zd)
+    for k, (kind, tau) in enumerate((("none", 0.0), ("velocity", 4e-3), ("velocity", 1e-2))):
+        np.testing.assert_array_equal(out[k], Compensator(1, 1, kind, tau, 1e-3)(z[k:k + 1],
+                                                                                 zd[k:k + 1])[0])
+    with pytest.raises(ValueError, match="velocity"):
+        Compensator(3, 1, "polynomial", [0.0, 4e-3, 1e-2], 1e-3)
 
 
 def test_lti_matches_scipy_dlsim_and_dc_gain():

@@ -1,11 +1,11 @@
 """Running a sweep: batches of tests on local cores (process pool) or a Dask cluster.
 
-The test list of a spec is cut into fixed batches (``batch_size`` consecutive tests, batch id
-``b00000``…); batches are the unit of work, of storage and of resumption. Each batch is run by
-:func:`rths3d.dataset.runner.run_rows` (the loop's K-tests-stepped-together path), wherever it
-executes; the rows come back to this process, which writes the part atomically. Workers never
-write to the table, so a Dask cluster needs no shared file system (except for
-``keep_records``).
+The test list of a spec is cut into fixed batches (at most ``batch_size`` tests of one
+setting the loop steps together, batch id ``b00000``…); batches are the unit of work, of
+storage and of resumption. Each batch is run by :func:`rths3d.dataset.runner.run_rows` (the
+loop's K-tests-stepped-together path), wherever it executes; the rows come back to this
+process, which writes the part atomically. Workers never write to the table, so a Dask
+cluster needs no shared file system (except for ``keep_records``).
 """
 
 from __future__ import annotations
@@ -31,14 +31,31 @@ RowsFn = Callable[[SweepSpec, list[dict[str, Any]], str | None], list[dict[str, 
 def batches_of(spec: SweepSpec) -> list[tuple[str, list[dict[str, Any]]]]:
     """The sweep's tests cut into its fixed batches: ``[(batch_id, tests), …]``.
 
-    The tests come ordered by transfer setting; each run of tests that the loop can step
-    together (:func:`~rths3d.dataset.spec.batch_group_key`) is cut into the fewest batches
-    of at most ``batch_size``, of nearly equal size, so that no batch straddles two settings
-    (a straddling batch runs as two smaller ones, which costs a step overhead each).
+    The tests are gathered by the setting the loop steps together
+    (:func:`~rths3d.dataset.spec.batch_group_key`; stable, so the spec's order holds within a
+    setting) and each group is cut into the fewest batches of at most ``batch_size``, of
+    nearly equal size, so that no batch straddles two settings (a straddling batch runs as
+    two smaller ones, which costs a step overhead each). The merged table keeps the spec's
+    test order whatever the batches.
     """
+    from ..scene import load_scene
+
+    def kind_of(fam) -> str | None:
+        if fam.transfer:
+            return fam.transfer
+        try:  # the scene sets it; an unreadable scene fails when the batch runs
+            return load_scene(spec.scene_path(fam)).transfer.kind
+        except ConfigError:
+            return None
+
+    kinds = {f.name: kind_of(f) for f in spec.families}
+
+    def key(test: dict[str, Any]) -> str:
+        return batch_group_key(test, kinds[test["family"]])
+
     b = spec.batch_size
     chunks: list[list[dict[str, Any]]] = []
-    for _, group in itertools.groupby(spec.tests(), key=batch_group_key):
+    for _, group in itertools.groupby(sorted(spec.tests(), key=key), key=key):
         run = list(group)
         n = -(-len(run) // b)
         size, extra = divmod(len(run), n)  # the first `extra` batches take one test more
@@ -108,7 +125,8 @@ def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = 
     if store.done() >= {bid for bid, _ in all_batches}:
         meta = {"name": spec.name, "digest": spec.digest(), "n_tests": n_total,
                 "written": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
-        return store.merge([bid for bid, _ in all_batches], meta)
+        return store.merge([bid for bid, _ in all_batches], meta,
+                           order=[t["test_id"] for t in spec.tests()])
     return None
 
 

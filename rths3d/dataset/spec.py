@@ -47,7 +47,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError
-from ..scene import STEWART_PER_TEST_SERVO
+from ..scene import ACTUATOR_PER_TEST, PER_TEST_COMPENSATION, STEWART_PER_TEST_SERVO
 
 TRANSFERS = ("ideal", "lti", "stewart")
 
@@ -181,16 +181,25 @@ def _group_sort_key(params: Mapping[str, Any]) -> str:
 
 
 _STEWART_PER_TEST = tuple(f"transfer.{k}" for k in STEWART_PER_TEST_SERVO)
+_ACTUATOR_PER_TEST = tuple(f"transfer.{k}" for k in ACTUATOR_PER_TEST)
 
 
-def batch_group_key(test: Mapping[str, Any]) -> str:
+def batch_group_key(test: Mapping[str, Any], transfer_kind: str | None = None) -> str:
     """Tests with equal keys can be stepped together (the loop's batch grouping, on the
     sweep's parameters): family, and the transfer/sensor/safety/time-grid settings, except
-    the Stewart servo settings that per-test platform models absorb."""
+    the Stewart servo settings that per-test platform models absorb and the actuator settings
+    that the LTI path takes per test (:data:`~rths3d.scene.ACTUATOR_PER_TEST`, compensation
+    ``none``/``velocity``). ``transfer_kind``: the family's transfer system when its scene,
+    not the spec, sets it (default: the test's ``transfer``)."""
     params = test["params"]
-    if test.get("transfer") == "stewart":
+    kind = test.get("transfer") or transfer_kind
+    if kind == "stewart":
         params = {k: (float(v) > 0 if k == "transfer.timeconst" else v)
                   for k, v in params.items() if k not in _STEWART_PER_TEST}
+    elif kind in ("lti", "delay"):
+        params = {k: ("|".join(PER_TEST_COMPENSATION) if k == "transfer.compensation"
+                      and v in PER_TEST_COMPENSATION else v)
+                  for k, v in params.items() if k not in _ACTUATOR_PER_TEST}
     return f"{test['family']}|{_group_sort_key(params)}"
 
 

@@ -40,7 +40,7 @@ def _atomic_write_table(frame, path: Path, meta: dict[str, Any] | None = None) -
     os.replace(tmp, path)
 
 
-BATCHING = "group-aligned/1"
+BATCHING = "group-aligned/2"
 """How tests are cut into batches (:func:`~rths3d.dataset.execute.batches_of`); a folder
 written with another scheme holds other batch ids and cannot be resumed."""
 
@@ -94,12 +94,18 @@ class SweepStore:
         _atomic_write_table(pd.DataFrame(list(rows)), path)
         return path
 
-    def merge(self, batch_ids: Sequence[str], meta: dict[str, Any]):
-        """Concatenate the parts in batch order into the sweep table (atomic) and return it."""
+    def merge(self, batch_ids: Sequence[str], meta: dict[str, Any],
+              order: Sequence[str] | None = None):
+        """Concatenate the parts into the sweep table (atomic) and return it: rows in the
+        order of the test ids ``order`` (the spec's), else in batch order."""
         import pandas as pd
 
         frames = [pd.read_parquet(self.part_path(b)) for b in batch_ids]
         frame = pd.concat(frames, ignore_index=True, sort=False) if frames else pd.DataFrame()
+        if order is not None and len(frame):
+            pos = {tid: i for i, tid in enumerate(order)}
+            frame = frame.iloc[frame["test_id"].map(pos).argsort(kind="stable")]
+            frame = frame.reset_index(drop=True)
         _atomic_write_table(frame, self.table_path, meta)
         return frame
 

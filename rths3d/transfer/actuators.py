@@ -54,6 +54,53 @@ class DelayLine:
         return self.out
 
 
+class PerTestDelayLine:
+    """:class:`DelayLine` with one delay τ_k (s) per test, so that tests whose actuators
+    differ only in their transport delay are stepped together. Same interpolation and
+    start-up, the same floating-point operations per test (a test's output equals that of a
+    :class:`DelayLine` with its τ_k)."""
+
+    def __init__(self, K: int, n: int, delays: Sequence[float], dt: float):
+        steps = np.asarray(delays, dtype=float) / dt
+        if steps.shape != (K,):
+            raise ValueError(f"delays: {steps.shape[0] if steps.ndim else 1} given for K = {K}")
+        d0 = np.floor(steps + 1e-12).astype(int)
+        self.K = K
+        self.size = int(d0.max()) + 2
+        # ring buffer of (slot, test) rows; the rows to read when slot i was just written are
+        # tabulated for every i, so a step gathers with np.take and allocates nothing
+        self.buf = np.zeros((self.size * K, n))
+        slots = np.arange(self.size)[:, None]
+        tests = np.arange(K)
+        self._row_a = ((slots - d0) % self.size) * K + tests
+        self._row_b = ((slots - d0 - 1) % self.size) * K + tests
+        frac = (steps - d0)[:, None]
+        self._keep = 1.0 - frac
+        self._frac = frac
+        self._interp = bool(np.any(frac))
+        self.i = 0
+        self.out = np.zeros((K, n))
+        self._b = np.zeros((K, n))
+
+    def reset(self) -> None:
+        self.buf[:] = 0.0
+        self.i = 0
+        self.out[:] = 0.0
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        """Push u(t_n) (K, n); return u_k(t_n − τ_k) per test."""
+        i, K = self.i, self.K
+        self.buf[i * K:(i + 1) * K] = u
+        np.take(self.buf, self._row_a[i], axis=0, out=self.out)
+        if self._interp:
+            np.take(self.buf, self._row_b[i], axis=0, out=self._b)
+            self.out *= self._keep
+            self._b *= self._frac
+            self.out += self._b
+        self.i = (i + 1) % self.size
+        return self.out
+
+
 def _tf_file() -> Path:
     return Path(__file__).resolve().parents[2] / "assets" / "platform_heave_tf.json"
 
@@ -218,19 +265,86 @@ class LTIActuator:
         return float(-np.angle(h[0]) / w)
 
 
+class PerTestLTIActuator:
+    """:class:`LTIActuator` with one transfer function per test, so that tests whose
+    actuators differ (servo lag, velocity feed-forward, identified or user models) are
+    stepped together. Each test's discrete state-space model is padded with decoupled zero
+    states to the largest order; one stacked matmul per step serves all K·n_if channels."""
+
+    def __init__(self, K: int, n: int, models: Sequence[tuple[Sequence[float], Sequence[float]]],
+                 dt: float):
+        if len(models) != K:
+            raise ValueError(f"models: {len(models)} given for K = {K}")
+        parts = [LTIActuator(1, 1, num, den, dt) for num, den in models]
+        ns = max(p.ns for p in parts)
+        C = K * n
+        A = np.zeros((C, ns, ns))
+        B = np.zeros((C, ns))
+        Cr = np.zeros((C, 1, ns))
+        D = np.zeros((K, n))
+        for k, p in enumerate(parts):
+            rows = slice(k * n, (k + 1) * n)
+            A[rows, :p.ns, :p.ns] = p.AdT.T
+            B[rows, :p.ns] = p.Bd
+            Cr[rows, 0, :p.ns] = p.Cd
+            D[k] = p.Dd
+        self.ns = ns
+        self.A, self.B, self.Cr, self.D = A, B, Cr, D
+        self._has_d = bool(np.any(D))
+        self.x = np.zeros((C, ns, 1))
+        self._x_next = np.zeros((C, ns, 1))
+        self._bu = np.zeros((C, ns))
+        self._du = np.zeros((K, n))
+        self.y = np.zeros((K, n))
+        self._y3 = self.y.reshape(C, 1, 1)
+        self.parts = parts
+
+    def reset(self) -> None:
+        self.x[:] = 0.0
+        self.y[:] = 0.0
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        """Apply command u(t_n) (held until t_{n+1}); return the output y(t_{n+1})."""
+        np.matmul(self.A, self.x, out=self._x_next)
+        self.x, self._x_next = self._x_next, self.x
+        np.multiply(self.B, u.reshape(-1, 1), out=self._bu)
+        self.x[:, :, 0] += self._bu
+        np.matmul(self.Cr, self.x, out=self._y3)
+        if self._has_d:
+            np.multiply(self.D, u, out=self._du)
+            self.y += self._du
+        return self.y
+
+    def delay_estimates(self) -> list[float]:
+        """:meth:`LTIActuator.delay_estimate` per test (s)."""
+        return [p.delay_estimate() for p in self.parts]
+
+
 class Compensator:
     """Delay compensation of the command: ``velocity`` z_c = z + τ_c ż; ``polynomial``
     z_c = p(t + τ_c) with p the polynomial of ``order`` through the last order+1 commands
     (Lagrange extrapolation); ``none`` passes z through."""
 
-    def __init__(self, K: int, n: int, kind: str, tau: float, dt: float, order: int = 2):
+    def __init__(self, K: int, n: int, kind: str, tau: float | Sequence[float], dt: float,
+                 order: int = 2):
+        """``tau``: τ_c (s), or one per test for ``velocity`` (0 for tests without
+        compensation, so that tests with and without it are stepped together)."""
         self.kind = kind
-        self.tau = float(tau)
+        if np.ndim(tau):
+            if kind != "velocity":
+                raise ValueError(f"per-test tau needs kind 'velocity', not {kind!r}")
+            taus = np.asarray(tau, dtype=float).reshape(K, 1)
+            self.tau = taus
+            self._pass = not np.any(taus)
+            tau = 0.0
+        else:
+            self.tau = float(tau)
+            self._pass = kind == "none" or self.tau == 0.0
         self.order = int(order)
         self.hist = np.zeros((order + 1, K, n))
         self.out = np.zeros((K, n))
         # Lagrange weights for extrapolating samples at t_n, t_{n-1}, ... to t_n + τ
-        s = self.tau / dt
+        s = tau / dt
         nodes = -np.arange(order + 1, dtype=float)
         w = np.ones(order + 1)
         for j in range(order + 1):
@@ -243,7 +357,7 @@ class Compensator:
         self.hist[:] = 0.0
 
     def __call__(self, z: np.ndarray, zdot: np.ndarray) -> np.ndarray:
-        if self.kind == "none" or self.tau == 0.0:
+        if self._pass:
             return z
         if self.kind == "velocity":
             np.multiply(zdot, self.tau, out=self.out)

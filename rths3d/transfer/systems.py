@@ -22,11 +22,13 @@ import numpy as np
 
 from ..errors import SafetyStop
 from ..record import DOFS
-from ..scene import ExperimentConfig, Scene
+from ..scene import PER_TEST_COMPENSATION, ExperimentConfig, Scene
 from .actuators import (
     Compensator,
     DelayLine,
     LTIActuator,
+    PerTestDelayLine,
+    PerTestLTIActuator,
     SensorModel,
     default_transfer_function,
     default_transport_delay,
@@ -218,8 +220,11 @@ def build_transfer(scene: Scene, K: int, experiments: Sequence[ExperimentConfig]
     """The transfer system of ``scene`` for K tests.
 
     ``experiments``: per-test :class:`~rths3d.scene.ExperimentConfig` (default: the scene's).
-    ``scenes``: per-test scenes for the Stewart platform, whose leg-servo settings and parts
-    may differ test by test (see :class:`StewartTransfer`).
+    ``scenes``: per-test scenes. On the Stewart platform the leg-servo settings and parts may
+    differ test by test (see :class:`StewartTransfer`); on the ``delay`` and ``lti`` paths the
+    settings of :data:`~rths3d.scene.ACTUATOR_PER_TEST` and a compensation of ``none`` or
+    ``velocity`` may (per-test delay lines, actuator models and compensation times; the
+    records' ``transfer_meta`` then hold each test's model and predicted delay).
     ``specimen``: ``numpy`` (the vectorised 1-D model), ``mujoco`` or ``auto`` (numpy for
     1-D parts, MuJoCo for the multi-DOF part).
     """
@@ -244,48 +249,93 @@ def build_transfer(scene: Scene, K: int, experiments: Sequence[ExperimentConfig]
 
         spec = MujocoSpecimen(list(exps), scene.dofs, scene.dt, nthread=nthread)
     meta: dict = {"specimen": "numpy" if use_numpy else "mujoco"}
+    per_test = scenes if scenes is not None and K > 1 else [scene] * K
+    if len(per_test) != K:
+        raise ValueError(f"scenes: {len(per_test)} given for K = {K} tests")
     delay_line = lti_act = None
+    metas = None
     if tr.kind == "ideal":
         act = None
     elif tr.kind == "delay":
-        act = delay_line = DelayLine(K, n_if, tr.delay, scene.dt)
+        delays = [s.transfer.delay for s in per_test]
+        if len(set(delays)) == 1:
+            act = delay_line = DelayLine(K, n_if, tr.delay, scene.dt)
+        else:
+            act = delay_line = PerTestDelayLine(K, n_if, delays, scene.dt)
+            metas = [{**meta, "delay": d} for d in delays]
         meta["delay"] = tr.delay
     else:
-        if tr.num:
-            num, den = tr.num, tr.den
-            delay = tr.delay
+        models = [_lti_model(s) for s in per_test]
+        delays = [m[2] for m in models]
+        if len({repr(m) for m in models}) == 1:
+            num, den, delay = models[0]
+            act = lti_act = LTIActuator(K, n_if, num, den, scene.dt)
+            dline = DelayLine(K, n_if, delay, scene.dt) if delay > 0 else None
         else:
-            # the platform's identified heave model with its transport delay (see
-            # default_transport_delay): the 1-D analogue of the Stewart platform
-            num, den = default_transfer_function()[:2]
-            delay = default_transport_delay(scene.dt, tr.delay)
-            # and with the scene's leg-servo lags in place of the identification run's
-            num, den, delay = follow_servo_settings(num, den, delay, tr.timeconst,
-                                                    tr.velocity_ff, tr.kp, tr.kv, scene.dt)
-        act = lti_act = LTIActuator(K, n_if, num, den, scene.dt)
-        if delay > 0:
-            dline = delay_line = DelayLine(K, n_if, delay, scene.dt)
+            act = lti_act = PerTestLTIActuator(K, n_if, [m[:2] for m in models], scene.dt)
+            dline = PerTestDelayLine(K, n_if, delays, scene.dt) if max(delays) > 0 else None
+        if dline is not None:
+            delay_line = dline
             lti = act
 
             def act(u, _d=dline, _l=lti):
                 return _l(_d(u))
 
             act.reset = lambda _d=dline, _l=lti: (_d.reset(), _l.reset())  # type: ignore
-        meta.update(num=list(map(float, num)), den=list(map(float, den)), delay=delay)
-        try:
-            # low-frequency delay of z' behind z: G's group delay, the pure delay, and the
-            # half-step lead of holding z_{n+1} over [t_n, t_{n+1}]
-            meta["predicted_delay"] = LTIActuator(1, 1, num, den, scene.dt).delay_estimate() \
-                + delay - 0.5 * scene.dt
-        except (ValueError, ZeroDivisionError):
-            meta["predicted_delay"] = math.nan
-    comp = Compensator(K, n_if, tr.compensation, tr.comp_time, scene.dt, tr.poly_order)
+        by_model: dict[str, dict] = {}
+        for m in models:
+            if repr(m) not in by_model:
+                by_model[repr(m)] = {**meta, **_lti_meta(*m, scene.dt)}
+        metas = [by_model[repr(m)] for m in models]
+        meta = metas[0]
+        if len(by_model) == 1:
+            metas = None
+    comps = {(s.transfer.compensation, s.transfer.comp_time) for s in per_test}
+    if len(comps) == 1:
+        comp = Compensator(K, n_if, tr.compensation, tr.comp_time, scene.dt, tr.poly_order)
+    else:
+        # tests with and without velocity compensation, or with other τ_c (the loop's group key
+        # admits only these mixes): one per-test τ_c, 0 where there is none
+        kinds = {c for c, _ in comps}
+        if not kinds <= set(PER_TEST_COMPENSATION):
+            raise ValueError(f"transfer.compensation: tests stepped together mix {sorted(kinds)}")
+        taus = [s.transfer.comp_time if s.transfer.compensation == "velocity" else 0.0
+                for s in per_test]
+        comp = Compensator(K, n_if, "velocity", taus, scene.dt)
     s = scene.sensor
     sensor = SensorModel(K, n_if, scene.dt, s.kind, s.time_constant, s.noise_std, s.gain,
                          s.offset, s.delay, s.seed)
     out = ActuatorTransfer(tr.kind, K, n_if, act, spec, comp, sensor, meta)
+    if metas is not None:
+        out.metas = metas
     out.delay_line, out.lti = delay_line, lti_act  # the parts, for the single-test kernel
     return out
+
+
+def _lti_model(scene: Scene) -> tuple[list[float], list[float], float]:
+    """(num, den, pure delay) of the ``lti`` transfer system of ``scene``."""
+    tr = scene.transfer
+    if tr.num:
+        return list(tr.num), list(tr.den), tr.delay
+    # the platform's identified heave model with its transport delay (see
+    # default_transport_delay): the 1-D analogue of the Stewart platform
+    num, den = default_transfer_function()[:2]
+    delay = default_transport_delay(scene.dt, tr.delay)
+    # and with the scene's leg-servo lags in place of the identification run's
+    return follow_servo_settings(num, den, delay, tr.timeconst, tr.velocity_ff, tr.kp, tr.kv,
+                                 scene.dt)
+
+
+def _lti_meta(num, den, delay: float, dt: float) -> dict:
+    meta: dict = {"num": list(map(float, num)), "den": list(map(float, den)), "delay": delay}
+    try:
+        # low-frequency delay of z' behind z: G's group delay, the pure delay, and the
+        # half-step lead of holding z_{n+1} over [t_n, t_{n+1}]
+        meta["predicted_delay"] = LTIActuator(1, 1, num, den, dt).delay_estimate() \
+            + delay - 0.5 * dt
+    except (ValueError, ZeroDivisionError):
+        meta["predicted_delay"] = math.nan
+    return meta
 
 
 __all__ = ["ActuatorTransfer", "SafetyStop", "StewartTransfer", "TransferSystem",
