@@ -56,7 +56,9 @@ class ActuatorTransfer:
     """Compensation, actuator model, specimen and sensor (see module docstring)."""
 
     def __init__(self, name: str, K: int, n_if: int, actuator, specimen, compensator,
-                 sensor, meta: dict | None = None):
+                 sensor, meta: dict | None = None, metas: Sequence[dict] | None = None):
+        """``meta``: the transfer system's metadata; ``metas``: one per test where the tests'
+        actuators differ (default: ``meta`` for every test)."""
         self.name = name
         self.K, self.n_if = K, n_if
         self.actuator = actuator
@@ -70,6 +72,8 @@ class ActuatorTransfer:
         self.stopped = np.zeros(K, dtype=bool)
         self.reasons = [""] * K
         self.meta = meta or {}
+        self.metas = list(metas) if metas is not None else [self.meta] * K
+        """Per-test metadata (actuator model, delays, predicted delay)."""
 
     def reset(self) -> None:
         for part in (self.actuator, self.specimen, self.compensator, self.sensor):
@@ -305,9 +309,7 @@ def build_transfer(scene: Scene, K: int, experiments: Sequence[ExperimentConfig]
     s = scene.sensor
     sensor = SensorModel(K, n_if, scene.dt, s.kind, s.time_constant, s.noise_std, s.gain,
                          s.offset, s.delay, s.seed)
-    out = ActuatorTransfer(tr.kind, K, n_if, act, spec, comp, sensor, meta)
-    if metas is not None:
-        out.metas = metas
+    out = ActuatorTransfer(tr.kind, K, n_if, act, spec, comp, sensor, meta, metas)
     out.delay_line, out.lti = delay_line, lti_act  # the parts, for the single-test kernel
     return out
 
