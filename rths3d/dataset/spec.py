@@ -155,8 +155,8 @@ def enumerate_tests(spec: SweepSpec) -> list[dict[str, Any]]:
             pick = np.random.default_rng(_stable_seed(spec.seed, fam.name, "subset")).choice(
                 len(points), size=fam.subset, replace=False)
             points = [points[i] for i in sorted(pick)]
-        # tests that share transfer/sensor/safety settings and the time grid are the ones the
-        # loop can step together: keep them consecutive so that batches group well
+        # the spec's test order (and so the table's): by transfer/sensor/safety settings and
+        # time grid (batches_of regroups them by what the loop steps together)
         points.sort(key=_group_sort_key)
         seen: set[str] = set()
         for p in points:
