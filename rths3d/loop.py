@@ -630,9 +630,11 @@ def run_batch(scene: Scene, param_sets: Sequence[Mapping[str, Any]], transfer: s
     "experiment.h0": 0.002}, ...]``. Tests that share the time grid, transfer system and
     (for MuJoCo parts) the part's model are stepped together in groups of up to ``max_k``:
     numerical substructures as arrays over tests, the Stewart platform through
-    ``PlatformBatch`` (``mujoco.batch``, ``nthread`` threads, 0 = 2), the 1-D LTI path with
-    the vectorised numpy specimen. Results come back in the order of ``param_sets``.
-    A bad parameter raises :class:`~rths3d.errors.ConfigError` naming the set's index.
+    ``PlatformBatch`` (``mujoco.batch``, ``nthread`` threads, 0 = 2; servo settings and part
+    parameters per test), the 1-D LTI path with the vectorised numpy specimen (actuator
+    delay, model and compensation none/velocity per test, see docs/loop.md). Results come
+    back in the order of ``param_sets``. A bad parameter raises
+    :class:`~rths3d.errors.ConfigError` naming the set's index.
     """
     if transfer is not None:
         scene = scene.with_transfer(transfer)
