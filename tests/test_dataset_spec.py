@@ -144,6 +144,15 @@ def test_store_parts_atomic_and_guarded(tmp_path) -> None:
     pd.testing.assert_frame_equal(read_table(tmp_path / "s.parquet"), frame)
     with pytest.raises(ConfigError, match="another sweep"):
         SweepStore(tmp_path, "s", "zzz", 2, 4).open()
+    # merged in the order of given test ids whatever the batches; a folder that another
+    # batching scheme cut is refused (its batch ids name other tests)
+    frame = st.merge(["b00000", "b00001"], {"name": "s"}, order=["d", "a", "c", "b"])
+    assert frame["test_id"].tolist() == ["d", "a", "c", "b"]
+    assert frame["v"].tolist() == [4.0, 1.0, 3.0, 2.0]
+    man = tmp_path / "manifest.json"
+    man.write_text(man.read_text().replace('"group-aligned/2"', '"group-aligned/1"'))
+    with pytest.raises(ConfigError, match="another rths3d version"):
+        SweepStore(tmp_path, "s", "abc", 2, 4).open()
 
 
 def test_shipped_specs_parse_and_resolve_their_scenes() -> None:

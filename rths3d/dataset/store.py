@@ -69,10 +69,11 @@ class SweepStore:
             have = json.loads(man.read_text())
             for key in ("digest", "batch_size", "batching"):
                 if have.get(key) != want[key]:
+                    what = ("folder was cut into batches by another rths3d version"
+                            if key == "batching" else "folder holds another sweep")
                     raise ConfigError(
                         f"out ({self.root}) {key}", have.get(key),
-                        f"folder holds another sweep (this spec: {want[key]}); "
-                        "use a new --out folder")
+                        f"{what} (this one: {want[key]}); use a new --out folder")
         else:
             tmp = man.with_name(f".{man.name}.tmp{os.getpid()}")
             tmp.write_text(json.dumps(want, indent=1))
