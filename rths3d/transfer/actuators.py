@@ -291,33 +291,32 @@ class PerTestLTIActuator:
         self.ns = ns
         self.A, self.B, self.Cr, self.D = A, B, Cr, D
         self._has_d = bool(np.any(D))
+        # two state buffers, swapped each step, each with its (C, ns) view made once
         self.x = np.zeros((C, ns, 1))
         self._x_next = np.zeros((C, ns, 1))
+        self._x2, self._x_next2 = self.x[:, :, 0], self._x_next[:, :, 0]
         self._bu = np.zeros((C, ns))
         self._du = np.zeros((K, n))
         self.y = np.zeros((K, n))
         self._y3 = self.y.reshape(C, 1, 1)
-        self.parts = parts
 
     def reset(self) -> None:
         self.x[:] = 0.0
+        self._x_next[:] = 0.0
         self.y[:] = 0.0
 
     def __call__(self, u: np.ndarray) -> np.ndarray:
         """Apply command u(t_n) (held until t_{n+1}); return the output y(t_{n+1})."""
         np.matmul(self.A, self.x, out=self._x_next)
         self.x, self._x_next = self._x_next, self.x
+        self._x2, self._x_next2 = self._x_next2, self._x2
         np.multiply(self.B, u.reshape(-1, 1), out=self._bu)
-        self.x[:, :, 0] += self._bu
+        self._x2 += self._bu
         np.matmul(self.Cr, self.x, out=self._y3)
         if self._has_d:
             np.multiply(self.D, u, out=self._du)
             self.y += self._du
         return self.y
-
-    def delay_estimates(self) -> list[float]:
-        """:meth:`LTIActuator.delay_estimate` per test (s)."""
-        return [p.delay_estimate() for p in self.parts]
 
 
 class Compensator:

@@ -270,12 +270,17 @@ def build_transfer(scene: Scene, K: int, experiments: Sequence[ExperimentConfig]
         meta["delay"] = tr.delay
     else:
         models = [_lti_model(s) for s in per_test]
-        delays = [m[2] for m in models]
-        if len({repr(m) for m in models}) == 1:
+        keys = [repr(m) for m in models]
+        unique = dict(zip(keys, models, strict=True))
+        meta_of = {k: {**meta, **_lti_meta(*m, scene.dt)} for k, m in unique.items()}
+        meta = meta_of[keys[0]]
+        if len(unique) == 1:
             num, den, delay = models[0]
             act = lti_act = LTIActuator(K, n_if, num, den, scene.dt)
             dline = DelayLine(K, n_if, delay, scene.dt) if delay > 0 else None
         else:
+            metas = [meta_of[k] for k in keys]
+            delays = [m[2] for m in models]
             act = lti_act = PerTestLTIActuator(K, n_if, [m[:2] for m in models], scene.dt)
             dline = PerTestDelayLine(K, n_if, delays, scene.dt) if max(delays) > 0 else None
         if dline is not None:
@@ -286,14 +291,6 @@ def build_transfer(scene: Scene, K: int, experiments: Sequence[ExperimentConfig]
                 return _l(_d(u))
 
             act.reset = lambda _d=dline, _l=lti: (_d.reset(), _l.reset())  # type: ignore
-        by_model: dict[str, dict] = {}
-        for m in models:
-            if repr(m) not in by_model:
-                by_model[repr(m)] = {**meta, **_lti_meta(*m, scene.dt)}
-        metas = [by_model[repr(m)] for m in models]
-        meta = metas[0]
-        if len(by_model) == 1:
-            metas = None
     comps = {(s.transfer.compensation, s.transfer.comp_time) for s in per_test}
     if len(comps) == 1:
         comp = Compensator(K, n_if, tr.compensation, tr.comp_time, scene.dt, tr.poly_order)
