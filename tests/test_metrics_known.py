@@ -177,3 +177,12 @@ def test_ti_scales_with_amplitude_squared():
     assert ti(3 * z, 3 * zp) == pytest.approx(9 * ti(z, zp), rel=1e-9)
     assert paei(3 * z, 3 * zp)[0] == pytest.approx(paei(z, zp)[0], rel=1e-9)
     assert fei(3 * z, 3 * zp, DT).d == pytest.approx(fei(z, zp, DT).d, rel=1e-12)
+
+
+@pytest.mark.parametrize("periods,d", [(4.2, 9.23e-3), (10.3, 9.59e-3)])
+def test_fei_leakage_on_partial_periods_is_as_documented(periods, d):
+    """On records that are not whole periods the FEI delay has the documented leakage bias."""
+    t = np.arange(int(periods / 2.0 / DT)) * DT
+    r = fei(np.sin(4 * np.pi * t), np.sin(4 * np.pi * (t - 0.01)), DT)
+    assert r.d == pytest.approx(d, abs=0.01e-3)
+    assert f"{d * 1e3:.2f} ms on {periods} periods" in " ".join(fei.__doc__.split())

@@ -10,6 +10,7 @@ import sys
 import numpy as np
 import pytest
 
+from rths3d.errors import ConfigError
 from rths3d.metrics import FEATURE_SETS, compute_measures, e_rel_track, feature_row, fei
 from rths3d.record import DOFS, Record
 
@@ -193,3 +194,52 @@ def test_cli_bad_record_one_line_exit_2(tmp_path):
     assert res.returncode == 2
     assert "z_meas" in res.stderr and "Traceback" not in res.stderr
     assert len(res.stderr.strip().splitlines()) == 1
+
+
+def test_dominant_dof_ignores_static_offset():
+    """A DOF held at a static offset exchanges no interface power: the moving DOF dominates."""
+    t = np.arange(4000) * DT
+    x = 0.01 * np.sin(2 * np.pi * t)
+    xp = 0.0095 * np.sin(2 * np.pi * (t - 0.01))
+    zm = 0.02 + 2e-6 * np.random.default_rng(1).standard_normal(t.size)
+    cols = {"z_cmd.x": x, "z_meas.x": xp, "f_meas.x": 8650.0 * xp,
+            "z_cmd.z": np.full(t.size, 0.02), "z_meas.z": zm, "f_meas.z": 8650.0 * zm}
+    agg = compute_measures(Record(t, cols, {}))["aggregate"]
+    assert agg["dominant_dof"] == "x"
+    assert agg["fei_d"] == pytest.approx(0.01, rel=1e-6)
+
+
+_BAD_SYSTEM = [
+    ({"experiment": {"m_exp": 0.0}}, "m_exp"),
+    ({"experiment": {"k_exp": 0.0}}, "k_exp"),
+    ({"experiment": {"k_exp": -8650.0}}, "k_exp"),
+    ({"experiment": {"k_exp": "8650 N/m"}}, "k_exp"),
+    ({"params": {"m_num": 0.0}}, "m_num"),
+    ({"params": {"d_num": -100.0}}, "d_num"),
+    ({"numerical": {"M": [[9.62, 0], [0, 1.0]], "C": [[100, 0], [0, 1]],
+                    "K": [[2e4, -1e4], [-1e4, 1e4]], "gamma": [1, 0, 0]}}, "numerical.gamma"),
+    ({"numerical": {"M": [[9.62, 0], [0, 0.0]], "C": [[100, 0], [0, 1]],
+                    "K": [[2e4, -1e4], [-1e4, 1e4]], "gamma": [1, 0]}}, "M"),
+]
+
+
+@pytest.mark.parametrize("change,field", _BAD_SYSTEM)
+def test_bad_system_parameters_raise_config_error(change, field):
+    """Zero/negative/text experimental or numerical parameters raise ConfigError naming the
+    field (no inf from a division, no reshape or LinAlgError traceback)."""
+    meta = json.loads(json.dumps(SDOF_META))
+    for group, values in change.items():
+        meta.setdefault(group, {}).update(values)
+    rec = sdof_record()
+    rec = Record(rec.t, dict(rec.columns), meta)
+    with pytest.raises(ConfigError, match=f"^{field}:"):
+        compute_measures(rec)
+
+
+def test_cli_bad_parameter_one_line_exit_2(tmp_path, sdof):
+    """A phase margin given in degrees: one-line error saying rad, exit 2, no traceback."""
+    meta = dict(sdof.meta, phase_margin=30.0, crossover=10.0)
+    path = Record(sdof.t, dict(sdof.columns), meta).save(tmp_path / "deg.parquet")
+    res = run_cli(str(path))
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    assert "rad, not degrees" in res.stderr and len(res.stderr.strip().splitlines()) == 1

@@ -130,3 +130,42 @@ def test_nan_inside_a_record_names_the_column():
     rec = Record(t, {"z_cmd.ry": np.sin(t), "z_meas.ry": zp})
     with pytest.raises(RecordError, match=r"z_meas\.ry.*row 7"):
         compute_measures(rec)
+
+
+def test_fei_of_constant_command_is_nan():
+    """A constant command (round-off left in its non-DC bins) has no AC content: FEI NaN."""
+    r = fei(np.ones(2000), 1.1 * np.ones(2000), DT)
+    assert math.isnan(r.A) and math.isnan(r.d) and math.isnan(r.f_eq)
+    two = fei(np.column_stack([np.ones(2000), np.sin(np.arange(2000) * 0.05)]),
+              np.column_stack([1.1 * np.ones(2000), np.sin(np.arange(2000) * 0.05)]), DT)
+    assert math.isnan(two.A[0]) and two.A[1] == pytest.approx(1.0, rel=1e-6)
+
+
+def test_theta_pc_of_constant_command_is_nan():
+    """Θ_PC is NaN when the command is constant, not the 1e16 of tan(π/2) on round-off."""
+    assert math.isnan(theta_pc(np.ones(2000), np.sin(0.01 * np.arange(2000))))
+    assert math.isnan(theta_pc(np.zeros(2000), np.sin(0.01 * np.arange(2000))))
+    z = np.sin(0.01 * np.arange(2000))
+    assert theta_pc(z, 1e8 * z) == pytest.approx(1e8, rel=1e-9)  # a real steep slope stays
+
+
+def test_tracking_delay_of_constant_signals_is_nan():
+    """J1 of constant signals (no finite correlation at any lag) is NaN, not 0 s."""
+    from rths3d.metrics.criteria import j_criteria, tracking_delay
+
+    c = np.full(500, 0.02)
+    assert math.isnan(tracking_delay(c, c, DT))
+    assert math.isnan(j_criteria(c, c, dt=DT)["j1"])
+
+
+def test_paei_history_non_finite_window_or_step_is_config_error():
+    """A NaN/inf/text window or step raises ConfigError naming it, not a ValueError."""
+    from rths3d.metrics import paei_history
+
+    t = np.arange(3000) * DT
+    z = np.sin(2 * np.pi * t)
+    for kw, field in ((dict(window=math.nan), "window"), (dict(window="half"), "window"),
+                      (dict(window=0.5, step=math.nan), "step"),
+                      (dict(window=0.5, step=-0.1), "step")):
+        with pytest.raises(ConfigError, match=f"^{field}:"):
+            paei_history(z, z, DT, **kw)

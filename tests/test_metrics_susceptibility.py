@@ -163,3 +163,67 @@ def test_psi_two_dof_against_simulation():
     assert last < first
     first, last = _simulate_2dof(1.3 * loop.tau_cr)
     assert last > first
+
+
+def _hand_tau_cr(m, c, k, me, ce, ke):
+    """SDOF τ_cr from the roots of |Q(iω)|² = |P(iω)|², a quadratic in ω²."""
+    roots = np.roots([me * me - m * m, ce * ce - 2 * ke * me - c * c + 2 * k * m,
+                      ke * ke - k * k])
+    best = math.inf
+    for r in roots:
+        if abs(r.imag) < 1e-9 and r.real > 0:
+            w = math.sqrt(r.real)
+            mu = complex(ke - me * w * w, ce * w) / complex(k - m * w * w, c * w)
+            best = min(best, ((np.angle(mu) + math.pi) % (2 * math.pi)) / w)
+    return best
+
+
+@pytest.mark.parametrize("args", [(1.0, 0.0, 1.0, 0.38, 5.0, 1.0),
+                                  (1.0, 0.0, 1.0, 0.5, 0.0, 1.0),
+                                  (9.62, 1e-9, 1e4, 4.81, 0.0, 1e4)])
+def test_interface_loop_undamped_numerical_part(args):
+    """An undamped or barely damped numerical part (P(iω) singular on the grid, |μ| = 1 at
+    round-off on a grid point) gives the closed-form τ_cr instead of crashing."""
+    loop = interface_loop(*args)
+    expected = _hand_tau_cr(*args)
+    if expected < 1e-9:
+        assert loop.tau_cr == pytest.approx(expected, abs=1e-12)
+    else:
+        assert loop.tau_cr == pytest.approx(expected, rel=1e-6)
+
+
+def test_unstable_without_delay_gives_zero_tau_cr():
+    """A coupled system already unstable without delay (negative damping) has τ_cr = 0,
+    PSI = −∞; the undamped boundary case keeps τ_cr = 0 through its crossover."""
+    loop = interface_loop(9.62, -100.0, 1e4, 0.38, 0.0, 8650.0)
+    assert loop.tau_cr == 0.0 and loop.psi == -math.inf
+    assert psi_class(loop.psi) == "extremely sensitive"
+    # unstable numerical part stabilised by the specimen's damping: a finite τ_cr
+    assert interface_loop(9.62, -1.0, 1e4, 0.38, 5.0, 8650.0).tau_cr > 0.0
+    assert interface_loop(9.62, 0.0, 1e4, 0.38, 0.0, 8650.0).tau_cr == 0.0
+
+
+def test_phase_margin_in_degrees_is_refused():
+    """A phase margin outside [0, 2π) rad (e.g. 30 meaning degrees) raises ConfigError."""
+    with pytest.raises(ConfigError, match="rad, not degrees"):
+        delay_margin(30.0, 10.0)
+    with pytest.raises(ConfigError, match="phase_margin"):
+        delay_margin(-0.1, 10.0)
+    assert delay_margin(math.radians(30.0), 10.0) == pytest.approx(math.pi / 60)
+
+
+def test_bad_model_matrices_raise_config_error():
+    """Singular M, negative damping or a wrongly sized Γ raise ConfigError naming the field."""
+    K = np.array([[2e4, -1e4], [-1e4, 1e4]])
+    with pytest.raises(ConfigError, match="^M:"):
+        fastest_mode(np.diag([9.62, 0.0]), np.eye(2), K)
+    with pytest.raises(ConfigError, match="^M:"):
+        fastest_mode(0.0, 1.0, 1e4)
+    with pytest.raises(ConfigError, match="^C:"):
+        fastest_mode(9.62, -100.0, 1e4)
+    with pytest.raises(ConfigError, match="^M:"):
+        interface_loop(np.diag([9.62, 0.0]), np.eye(2), K, 0.38, 0.0, 8650.0, [1.0, 0.0])
+    with pytest.raises(ConfigError, match="^gamma:"):
+        omega_dyn(np.eye(2), K, 0.38, 8650.0, [1.0, 0.0, 0.0])
+    with pytest.raises(ConfigError, match="^K:"):
+        omega_num(1.0, "1e4 N/m")

@@ -70,7 +70,8 @@ def tracking_delay(x_cmd: np.ndarray, x_meas: np.ndarray, dt: float, max_lag: in
 
     For lag L = 0 … max_lag − 1 samples, r_L is the Pearson correlation of
     ``x_meas[L:]`` with ``x_cmd[:N−L]``; the delay is ``L*·dt`` for the first L maximising r_L.
-    Pearson normalisation matters: a plain cross-correlation is biased toward zero lag.
+    Pearson normalisation matters: a plain cross-correlation is biased toward zero lag. NaN
+    when no lag has a correlation (a constant signal has no variance to correlate).
     """
     a, b = _vec("x_cmd", x_cmd), _vec("x_meas", x_meas)
     if a.size != b.size:
@@ -97,6 +98,8 @@ def tracking_delay(x_cmd: np.ndarray, x_meas: np.ndarray, dt: float, max_lag: in
         var = (saa - sa * sa / n) * (sbb - sb * sb / n)
         if var > 0.0:
             r[L] = cov / math.sqrt(var)
+    if not np.isfinite(r).any():
+        return math.nan  # argmax of all −inf would report a made-up delay of 0 s
     return int(np.argmax(r)) * float(dt)
 
 
@@ -185,7 +188,8 @@ def j_criteria(x_cmd: np.ndarray, x_meas: np.ndarray, x_num: np.ndarray | None =
             if v is not None:
                 out[k] = v
     if rnd:
-        out["j1"] = _round_half_away(10000.0 * out["j1"]) / 10.0 / 1000.0
+        if not math.isnan(out["j1"]):
+            out["j1"] = _round_half_away(10000.0 * out["j1"]) / 10.0 / 1000.0
         for k in KEYS[1:]:
             if not math.isnan(out[k]):
                 out[k] = _round_half_away(100.0 * out[k]) / 100.0

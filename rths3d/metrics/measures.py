@@ -6,8 +6,9 @@ One code path for one DOF and for several: every interface measure is computed p
 
 Aggregate (multi-DOF). Dimensionless interface measures (tracking, SSP, FEI, reference
 errors, J1–J9 and the τ-ratios) are those of the **dominant DOF**: the DOF that exchanges the
-most power at the interface, largest RMS(z)·RMS(F'_m) (J for translations and rotations
-alike); without ``f_meas`` the DOF of largest RMS(z) (which then compares m with rad).
+most power at the interface, largest std(z)·std(F'_m) (J for translations and rotations
+alike; means removed, so a static offset exchanges none); without ``f_meas`` the DOF of
+largest std(z) (which then compares m with rad).
 Energies add up: ``e_error`` and ``e_input`` are sums over the DOFs, ``e_strain`` uses the full
 k_EXP matrix, and ``hsem_s``/``hsem_i``/``eei`` are formed from these totals. System-level
 quantities (φ, κ, ζ, ω's, τ_max, τ_cr, PSI, EEI) appear once, in the aggregate (and in the flat
@@ -45,6 +46,7 @@ import numpy as np
 from ..errors import ConfigError, RecordError
 from ..record import Record
 from . import energy, frequency, reference, ssp, susceptibility, tracking
+from ._signals import col_mean
 from .features import feature_names
 
 SYSTEM_KEYS: tuple[str, ...] = (
@@ -65,8 +67,23 @@ def _get(context: dict, meta: dict, key: str, *paths: tuple[str, ...]) -> Any:
     return None
 
 
+def _floats(value: Any, name: str) -> np.ndarray:
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(name, value, "must be a number in SI units, without unit text, "
+                                       "or a matrix of numbers") from exc
+
+
+def _scalar(value: Any, name: str) -> float:
+    arr = _floats(value, name)
+    if arr.size != 1:
+        raise ConfigError(name, arr.tolist(), "must be a scalar (one numerical DOF)")
+    return float(arr.reshape(-1)[0])
+
+
 def _matrix(value: Any, nd: int, name: str) -> np.ndarray:
-    arr = np.atleast_2d(np.asarray(value, dtype=float))
+    arr = np.atleast_2d(_floats(value, name))
     if arr.shape == (1, 1) and nd > 1:
         arr = np.eye(nd) * arr[0, 0]
     if arr.shape != (nd, nd) or not np.all(np.isfinite(arr)):
@@ -85,10 +102,22 @@ def _numerical(context: dict, meta: dict) -> tuple[np.ndarray, ...] | None:
         d = context.get("d_num", params.get("d_num", 0.0))
         if m is None or k is None:
             return None
+        m, k, d = (_scalar(v, name) for v, name in ((m, "m_num"), (k, "k_num"), (d, "d_num")))
+        susceptibility._positive("m_num", m, "kg")
+        if not (math.isfinite(d) and d >= 0):
+            raise ConfigError("d_num", d, "kg/s; must be finite and >= 0")
         mats, gamma = [m, d, k], [[1.0]]
-    M, C, K = (np.atleast_2d(np.asarray(x, dtype=float)) for x in mats)
+    M, C, K = (np.atleast_2d(_floats(x, f"numerical.{name}"))
+               for x, name in zip(mats, "MCK", strict=True))
     n = M.shape[0]
-    G = np.ones((n, 1)) if gamma is None else np.asarray(gamma, dtype=float).reshape(n, -1)
+    if gamma is None:
+        G = np.ones((n, 1))
+    else:
+        G = _floats(gamma, "numerical.gamma")
+        if G.size == 0 or G.size % n:
+            raise ConfigError("numerical.gamma", G.tolist(),
+                              f"must be {n}×ndof (numerical × interface DOFs)")
+        G = G.reshape(n, -1)
     return M, C, K, G
 
 
@@ -258,10 +287,13 @@ def compute_measures(record: Record, **context: Any) -> dict[str, Any]:
         for key in js[0]:
             per[key] = np.array([row[key] for row in js], dtype=float)
 
-    # dominant DOF: most interface power
-    power = np.sqrt(np.einsum("ij,ij->j", z, z))
+    # dominant DOF: most interface power; a static offset (a preload, a held position)
+    # exchanges none, so means are removed
+    zc = z - col_mean(z)
+    power = np.sqrt(np.einsum("ij,ij->j", zc, zc))
     if fm is not None:
-        power = power * np.sqrt(np.einsum("ij,ij->j", fm, fm))
+        fc = fm - col_mean(fm)
+        power = power * np.sqrt(np.einsum("ij,ij->j", fc, fc))
     dom = int(np.argmax(power))
 
     system = _system(record, context, meta, nd, dofs, float(per["fei_d"][dom]), k_exp)
@@ -312,6 +344,11 @@ def _system(record: Record, context: dict, meta: dict, nd: int, dofs: tuple[str,
         if w_num is None:
             w_num = w_max
         m_if, k_if = susceptibility.interface_properties(M, K, G)
+        for name, mat, why in (("m_exp", m_exp, "kg; must be > 0: φ = m_NUM/m_EXP"),
+                               ("k_exp", k_exp, "N/m; must be > 0: κ = k_NUM/k_EXP")):
+            if mat is not None and not np.all(np.diag(mat) > 0):
+                shown = float(mat[0, 0]) if nd == 1 else np.diag(mat).tolist()
+                raise ConfigError(name, shown, why)
         if m_exp is not None:
             out["phi"] = float(np.mean(m_if / np.diag(m_exp))) if nd > 1 else \
                 float(m_if[0] / m_exp[0, 0])

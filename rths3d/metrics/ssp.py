@@ -54,13 +54,16 @@ def theta_pc(z: ArrayLike, z_meas: ArrayLike) -> float | np.ndarray:
     θ = ½ atan2(2 s_zz', s_zz − s_z'z'). The slope tan θ is the amplitude ratio z'/z seen by
     the SSP: 1 = perfect, < 1 undershoot, > 1 overshoot. For z' = a z it equals a exactly;
     with phase lag the major axis also tilts, so it is an indicator, not the gain. NaN when
-    both signals are constant.
+    the command z is constant (its centred variance s_zz ≤ 1e-18 mean(z²), i.e. round-off):
+    the axis is then vertical and its slope undefined.
     """
     a, b, one = as_pair(z, z_meas, ("z", "z_meas"))
     sxx, sxy, syy = _moments(a, b)
     theta = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)
     slope = np.tan(theta)
-    return out(np.where((sxx + syy) > 0.0, slope, np.nan), one)
+    # removing the mean of a constant leaves round-off, which tan(≈ π/2) blows up to ~1e16
+    msq = np.einsum("ij,ij->j", a, a) / a.shape[0]
+    return out(np.where(sxx > 1e-18 * msq, slope, np.nan), one)
 
 
 def fit_ellipse(x: np.ndarray, y: np.ndarray) -> np.ndarray | None:
@@ -183,10 +186,20 @@ def paei_history(z: ArrayLike, z_meas: ArrayLike, dt: float, window: float,
     a, b, one = as_pair(z, z_meas, ("z", "z_meas"))
     if not one:
         raise ConfigError("z", a.shape, "paei_history takes one DOF: (N,) signals")
-    w = int(round(float(window) / step_s))
+    sizes = {}
+    for name, value in (("window", window), ("step", step)):
+        if value is None:
+            continue
+        try:
+            sizes[name] = float(value)
+        except (TypeError, ValueError) as exc:
+            raise ConfigError(name, value, "s; must be a number") from exc
+        if not (np.isfinite(sizes[name]) and sizes[name] > 0):
+            raise ConfigError(name, sizes[name], "s; must be finite and > 0")
+    w = int(round(sizes["window"] / step_s))
     if not (6 <= w <= a.shape[0]):
         raise ConfigError("window", window, f"s; must span 6 to {a.shape[0]} samples")
-    h = max(1, int(round((window / 4 if step is None else float(step)) / step_s)))
+    h = max(1, int(round(sizes.get("step", sizes["window"] / 4) / step_s)))
     starts = np.arange(0, a.shape[0] - w + 1, h)
     x, y = np.ascontiguousarray(a[:, 0]), np.ascontiguousarray(b[:, 0])
     # TI increments; their sum over a window gives its sense of rotation

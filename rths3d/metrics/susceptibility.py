@@ -27,8 +27,9 @@ destabilise at a crossover, where an eigenvalue μ of L has |μ| = 1; there the 
 PM = angle(−μ) (wrapped to [0, 2π)) and the delay margin PM/ω_c. τ_cr is the smallest delay
 margin over all crossovers; none (|μ| < 1 everywhere) means stable for every delay, τ_cr = ∞.
 If |μ| > 1 as ω → ∞ (an experimental mass larger than the numerical one, a neutral system)
-any delay destabilises: τ_cr = 0, PSI = −∞. Classes: PSI > 0.7 slightly, 0…0.7 moderately,
-< 0 extremely sensitive.
+any delay destabilises: τ_cr = 0, PSI = −∞; so does a coupled system that is already unstable
+without delay (an eigenvalue with Re > 0, e.g. negative damping). Classes: PSI > 0.7
+slightly, 0…0.7 moderately, < 0 extremely sensitive.
 """
 
 from __future__ import annotations
@@ -43,7 +44,11 @@ from ..errors import ConfigError
 
 
 def _mat(name: str, value, n: int | None = None) -> np.ndarray:
-    arr = np.atleast_2d(np.asarray(value, dtype=float))
+    try:
+        arr = np.atleast_2d(np.asarray(value, dtype=float))
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(name, value, "must be a number in SI units, without unit text, "
+                                       "or a square matrix of numbers") from exc
     if arr.ndim != 2 or arr.shape[0] != arr.shape[1]:
         raise ConfigError(name, arr.shape, "must be a square matrix (or a scalar)")
     if n is not None and arr.shape[0] != n:
@@ -93,13 +98,24 @@ def eigenfrequencies(M: ArrayLike, K: ArrayLike) -> np.ndarray:
 
 
 def fastest_mode(M: ArrayLike, C: ArrayLike, K: ArrayLike) -> tuple[float, float]:
-    """(ω_max in rad/s, modal damping ratio ζ of that mode) of M ẍ + C ẋ + K x = 0."""
+    """(ω_max in rad/s, modal damping ratio ζ of that mode) of M ẍ + C ẋ + K x = 0.
+
+    M (kg) must be positive definite and C (N·s/m) positive semi-definite (d_NUM ≥ 0, as
+    for :func:`damping_ratio`).
+    """
     import scipy.linalg
 
     m = _mat("M", M)
     k = _mat("K", K, m.shape[0])
     c = _mat("C", C, m.shape[0])
-    lam, vec = scipy.linalg.eigh(k, m)
+    scale = float(np.abs(c).max())
+    if scale > 0 and np.linalg.eigvalsh(0.5 * (c + c.T)).min() < -1e-12 * scale:
+        raise ConfigError("C", c.tolist(), "N·s/m; damping must be >= 0 "
+                          "(positive semi-definite)")
+    try:
+        lam, vec = scipy.linalg.eigh(k, m)
+    except np.linalg.LinAlgError as exc:
+        raise ConfigError("M", m.tolist(), "kg; must be symmetric positive definite") from exc
     v = vec[:, -1]
     w = math.sqrt(max(float(lam[-1]), 0.0))
     zeta = float(v @ c @ v) / (2.0 * w * float(v @ m @ v)) if w > 0 else float("nan")
@@ -112,7 +128,12 @@ def omega_num(M: ArrayLike, K: ArrayLike) -> float:
 
 
 def _gamma(gamma, n: int, nd: int | None = None) -> np.ndarray:
-    g = np.asarray(gamma if gamma is not None else np.ones((n, 1)), dtype=float)
+    try:
+        g = np.asarray(gamma if gamma is not None else np.ones((n, 1)), dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ConfigError("gamma", gamma, "must be a matrix of numbers") from exc
+    if g.size == 0 or g.size % n:
+        raise ConfigError("gamma", g.tolist(), f"must be {n}×ndof (numerical × interface DOFs)")
     g = g.reshape(n, -1)
     if nd is not None and g.shape[1] != nd:
         raise ConfigError("gamma", g.shape, f"must be {n}×{nd} (numerical × interface DOFs)")
@@ -156,11 +177,15 @@ def tau_ratio(d: float, omega: float) -> float:
 
 
 def delay_margin(phase_margin: float, crossover: float) -> float:
-    """τ_max = PM / ω_c (s) from a phase margin PM (rad) at crossover ω_c (rad/s)."""
+    """τ_max = PM / ω_c (s) from a phase margin PM (rad, in [0, 2π)) at crossover ω_c (rad/s).
+
+    A PM outside [0, 2π) is refused: it is almost always a value in degrees, which would
+    silently give a delay margin 57 times too large.
+    """
     pm = float(phase_margin)
     wc = _positive("crossover", crossover, "rad/s")
-    if not math.isfinite(pm):
-        raise ConfigError("phase_margin", pm, "rad; must be finite")
+    if not (math.isfinite(pm) and 0.0 <= pm < 2.0 * math.pi):
+        raise ConfigError("phase_margin", pm, "rad, not degrees; must be in [0, 2π)")
     return pm / wc
 
 
@@ -178,7 +203,8 @@ class InterfaceLoop:
 
     ``crossovers`` (rad/s) and ``phase_margins`` (rad) at every |μ| = 1 crossing;
     ``tau_cr`` (s) the smallest delay margin (∞: no crossing; 0: neutral, unstable for any
-    delay); ``crossover`` and ``phase_margin`` of the crossing that sets τ_cr.
+    delay, or already unstable without delay, where ``crossover`` and ``phase_margin`` are
+    NaN); ``crossover`` and ``phase_margin`` of the crossing that sets τ_cr.
     """
 
     crossovers: np.ndarray
@@ -201,7 +227,19 @@ def _loop_eigs(w: np.ndarray, m, c, k, me, ce, ke, g) -> np.ndarray:
     p = (s * s) * m + s * c + k
     q = (s * s) * me + s * ce + ke
     gb = np.broadcast_to(g, (p.shape[0],) + g.shape)
-    return np.linalg.eigvals(q @ (g.T @ np.linalg.solve(p, gb)))
+    try:
+        x = np.linalg.solve(p, gb)
+    except np.linalg.LinAlgError:
+        # an undamped numerical mode makes P(iω) exactly singular at its eigenfrequency, where
+        # |μ| is unbounded: evaluate 1e-9 (relative) beside it, where μ is finite and huge
+        x = np.empty(gb.shape, dtype=complex)
+        for i in range(p.shape[0]):
+            try:
+                x[i] = np.linalg.solve(p[i], g)
+            except np.linalg.LinAlgError:
+                si = s[i] * (1.0 + 1e-9)
+                x[i] = np.linalg.solve((si * si) * m + si * c + k, g)
+    return np.linalg.eigvals(q @ (g.T @ x))
 
 
 def interface_loop(M: ArrayLike, C: ArrayLike, K: ArrayLike, M_exp: ArrayLike,
@@ -211,7 +249,11 @@ def interface_loop(M: ArrayLike, C: ArrayLike, K: ArrayLike, M_exp: ArrayLike,
 
     ``M, C, K``: numerical substructure (n × n, SI); ``M_exp, C_exp, K_exp``: experimental
     part at the interface (ndof × ndof or scalars); ``gamma``: Γ (n × ndof, default ones).
-    The coupled system without delay is assumed stable. Crossings are found on a logarithmic
+    If the coupled system without delay is already unstable (an eigenvalue of
+    (M + ΓM_EXPΓᵀ)s² + (C + ΓC_EXPΓᵀ)s + K + ΓK_EXPΓᵀ with Re s > 1e-8 |s|_max) every delay
+    is too much: τ_cr = 0, PSI = −∞ (extremely sensitive). An undamped coupled system sits on
+    the boundary (Re s = 0), counts as stable and gives τ_cr = 0 from its crossover at ω_0,DYN
+    (μ = −1, zero phase margin). Crossings are found on a logarithmic
     grid of ``n_grid`` frequencies spanning four decades around the eigenfrequencies (plus the
     eigenfrequencies themselves) and refined by Brent's method on |μ| − 1 (eigenvalues sorted
     by modulus).
@@ -226,12 +268,14 @@ def interface_loop(M: ArrayLike, C: ArrayLike, K: ArrayLike, M_exp: ArrayLike,
     ke = _mat("k_exp", K_exp, nd)
     g = _gamma(gamma, n, nd)
     args = (m, c, k, me, ce, ke, g)
+    w_num = eigenfrequencies(m, k)  # first: refuses an M that is not positive definite
+    if not _stable_without_delay(m + g @ me @ g.T, c + g @ ce @ g.T, k + g @ ke @ g.T):
+        return InterfaceLoop(np.array([]), np.array([]), 0.0, math.nan, math.nan)
     # a neutral loop (|μ| > 1 as ω → ∞) is unstable for any delay
     m_red = g.T @ np.linalg.solve(m, g)
     if np.max(np.abs(np.linalg.eigvals(me @ m_red))) > 1.0:
         return InterfaceLoop(np.array([]), np.array([]), 0.0, math.inf, 0.0)
-    wn = np.concatenate([eigenfrequencies(m, k),
-                         eigenfrequencies(m + g @ me @ g.T, k + g @ ke @ g.T)])
+    wn = np.concatenate([w_num, eigenfrequencies(m + g @ me @ g.T, k + g @ ke @ g.T)])
     wn = wn[wn > 0]
     lo = (wn.min() if wn.size else 1.0) * 1e-2
     hi = (wn.max() if wn.size else 1.0) * 1e2
@@ -250,8 +294,16 @@ def interface_loop(M: ArrayLike, C: ArrayLike, K: ArrayLike, M_exp: ArrayLike,
         sgn = np.signbit(table[:, j])
         for i in np.flatnonzero(sgn[1:] != sgn[:-1]):
             # |μ_j(ω)| − 1 changes sign in [grid[i], grid[i+1]]: Brent's method on log ω
-            wc = math.exp(brentq(lambda lw, j=j: mods(math.exp(lw))[j] - 1.0,
-                                 math.log(grid[i]), math.log(grid[i + 1]), xtol=1e-13))
+            lo_w, hi_w = math.log(grid[i]), math.log(grid[i + 1])
+            fa, fb = (mods(math.exp(lw))[j] - 1.0 for lw in (lo_w, hi_w))
+            if np.signbit(fa) != np.signbit(fb):
+                wc = math.exp(brentq(lambda lw, j=j: mods(math.exp(lw))[j] - 1.0,
+                                     lo_w, hi_w, xtol=1e-13))
+            else:
+                # |μ| − 1 is at round-off on a grid point (an undamped system's crossover at
+                # ω_0,DYN, sampled exactly), and exp(log ω) moved it across zero
+                wc = float(grid[i] if abs(table[i, j]) <= abs(table[i + 1, j])
+                           else grid[i + 1])
             mu = _loop_eigs(np.array([wc]), *args)[0]
             mu_c = mu[np.argmin(np.abs(np.abs(mu) - 1.0))]
             # 1 + μ e^(−iωτ) = 0 ⇔ ωτ = angle(μ) − π (mod 2π): the phase left before −1
@@ -264,6 +316,22 @@ def interface_loop(M: ArrayLike, C: ArrayLike, K: ArrayLike, M_exp: ArrayLike,
     margins = pm_a / cross_a
     i = int(np.argmin(margins))
     return InterfaceLoop(cross_a, pm_a, float(margins[i]), float(cross_a[i]), float(pm_a[i]))
+
+
+def _stable_without_delay(mc: np.ndarray, cc: np.ndarray, kc: np.ndarray) -> bool:
+    """Whether Mc ẍ + Cc ẋ + Kc x = 0 has no eigenvalue with Re s > 1e-8 max|s| (round-off
+    puts the eigenvalues of an undamped system a hair to either side of the axis)."""
+    import scipy.linalg
+
+    n = mc.shape[0]
+    eye, zero = np.eye(n), np.zeros((n, n))
+    a = np.block([[zero, eye], [-kc, -cc]])
+    b = np.block([[eye, zero], [zero, mc]])
+    lam = scipy.linalg.eigvals(a, b)
+    lam = lam[np.isfinite(lam)]
+    if lam.size == 0:
+        return True
+    return bool(np.max(lam.real) <= 1e-8 * np.max(np.abs(lam)))
 
 
 def psi(tau_cr: float) -> float:
