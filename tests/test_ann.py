@@ -15,6 +15,7 @@ from rths3d.ann import (
     FidelityANN,
     LMConfig,
     MinMax,
+    NonFiniteInputWarning,
     Topology,
     mse,
     pearson_rho,
@@ -337,3 +338,116 @@ def test_parse_topologies_reads_both_spellings_and_names_the_field() -> None:
         parse_topologies("10xa")
     with pytest.raises(ConfigError, match="width must be >= 1"):
         parse_topologies("5;0")
+
+
+def test_damaged_model_file_is_a_config_error(fitted, tmp_path) -> None:
+    """Every damaged model file (not a dict, keys missing, wrong sizes) is a ConfigError naming
+    the file, never an AttributeError, KeyError or torch size mismatch."""
+    import copy
+    import json
+
+    model, _, _ = fitted
+    good = json.loads(json.dumps(model.to_dict()))
+
+    def damaged(edit):
+        d = copy.deepcopy(good)
+        edit(d)
+        return d
+
+    cases = {
+        "list": [good],
+        "no members": damaged(lambda d: d.pop("members")),
+        "short member": damaged(lambda d: d["members"][0].pop()),
+        "hidden changed": damaged(lambda d: d.update(hidden=[7])),
+        "no hi": damaged(lambda d: d["x_range"].pop("hi")),
+        "no members left": damaged(lambda d: d.update(members=[])),
+        "n_in vs names": damaged(lambda d: d.update(feature_names=d["feature_names"][:3])),
+        "range length": damaged(lambda d: d["raw_range"]["lo"].pop()),
+        "member not numbers": damaged(lambda d: d["members"].__setitem__(0, "abc")),
+    }
+    for name, content in cases.items():
+        path = tmp_path / f"{name}.json"
+        path.write_text(json.dumps(content))
+        with pytest.raises(ConfigError, match=f"^model: '{path}'"):
+            FidelityANN.load(path)
+
+
+def test_nonfinite_inputs_warn_and_predict_nan_and_scores_skip_nan_targets(fitted) -> None:
+    """NaN/inf inputs give a warning naming their rows and columns and NaN predictions for
+    those rows only; scores() leaves out samples with a NaN target instead of returning NaN."""
+    model, x, y = fitted
+    bad = x[:5].copy()
+    bad[1, 2] = np.nan
+    bad[3, 0] = np.inf
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        p = model.predict(bad)
+    assert [w.category for w in caught] == [NonFiniteInputWarning]
+    assert "rows 1, 3" in str(caught[0].message)
+    assert "relevant, noise1" in str(caught[0].message)
+    assert np.isnan(p[[1, 3]]).all() and np.isfinite(p[[0, 2, 4]]).all()
+    t = y.copy()
+    t[model.indices["test"][0]] = np.nan
+    sc = model.scores(x, t)
+    assert np.isfinite([sc["r_test"], sc["r_all"], sc["mse"], sc["mse_test"]]).all()
+
+
+def test_constant_column_and_constant_target_invert_to_their_value() -> None:
+    """A constant column maps to 0 and back to its value; a constant target is predicted
+    as that constant (log and linear transforms)."""
+    s = MinMax.fit(np.array([[2.0, 1.0], [2.0, 3.0]]))
+    assert np.array_equal(s.inverse(s.transform(np.array([[2.0, 2.0]]))), [[2.0, 2.0]])
+    x = np.random.default_rng(0).uniform(1.0, 2.0, (30, 2))
+    for transform in ("log", "linear"):
+        m = FidelityANN(topologies=((2,),), n_trainings=1, transform=transform)
+        assert m.fit(x, np.full(30, 0.05)).predict(x[:3]) == pytest.approx(0.05, rel=1e-12)
+
+
+def test_given_split_is_validated_and_scores_need_the_fit_samples(fitted, tmp_path) -> None:
+    """fit(indices=...) needs exactly train/val/test, non-empty, disjoint, integer rows in
+    [0, N); scores() on another number of samples is a ConfigError; old files still load."""
+    x, y = smooth_data(30, 2)
+    ok = {"train": np.arange(20), "val": np.arange(20, 25), "test": np.arange(25, 30)}
+    bad = [
+        ({"train": ok["train"], "val": ok["val"]}, "exactly the keys"),
+        (ok | {"extra": [0]}, "exactly the keys"),
+        (ok | {"test": []}, "non-empty"),
+        (ok | {"test": np.arange(24, 30)}, "both val and test"),
+        (ok | {"test": [25, 30]}, r"\[0, 30\)"),
+        (ok | {"test": [-1, 26]}, r"\[0, 30\)"),
+        (ok | {"test": [25.0, 26.0]}, "integers"),
+    ]
+    for indices, why in bad:
+        with pytest.raises(ConfigError, match=why):
+            FidelityANN(topologies=((2,),), n_trainings=1).fit(x, y, indices=indices)
+    model, xf, yf = fitted
+    assert model.n_samples == len(yf)
+    with pytest.raises(ConfigError, match="scores"):
+        model.scores(xf[:-1], yf[:-1])
+    old = model.to_dict()
+    old.pop("n_samples")
+    assert FidelityANN.from_dict(old).scores(xf, yf)["r_test"] == model.scores(xf, yf)["r_test"]
+
+
+def test_failed_save_is_a_config_error_and_leaves_no_temp_file(fitted, tmp_path) -> None:
+    """Saving onto a folder or below a file raises ConfigError and leaves no temp file."""
+    model, _, _ = fitted
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "file").write_text("")
+    for target in (tmp_path / "folder", tmp_path / "file" / "m.json"):
+        with pytest.raises(ConfigError, match="cannot write the model"):
+            model.save(target)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file", "folder"]
+
+
+def test_one_sample_as_a_1d_row(fitted) -> None:
+    """A 1-D row of the n_in inputs (numpy row or DataFrame row) is one sample."""
+    import pandas as pd
+
+    model, x, _ = fitted
+    one = model.predict(x[:1])
+    assert model.predict(x[0]).tolist() == one.tolist()
+    row = pd.DataFrame(x, columns=model.feature_names)[model.feature_names[::-1]].iloc[0]
+    assert model.predict(row) == pytest.approx(one, rel=1e-12)
+    with pytest.raises(ConfigError, match="feature"):
+        model.predict(x[0, :3])

@@ -35,6 +35,32 @@ def run(*args: str) -> subprocess.CompletedProcess:
                           text=True, timeout=300)
 
 
+@pytest.fixture(scope="module")
+def record(tmp_path_factory):
+    """A real 1-s record of the paper's contact test (1-DOF numerical part)."""
+    rec = tmp_path_factory.mktemp("rec") / "rec.parquet"
+    r = run("run", "paper_contact", "-t", "lti", "--set", "duration=1", "--out", str(rec))
+    assert r.returncode == 0, r.stderr
+    return rec
+
+
+@pytest.fixture(scope="module")
+def model(table, tmp_path_factory):
+    """A small set-3 model trained on the table."""
+    path = tmp_path_factory.mktemp("model") / "m.json"
+    p = run("train", str(table), "--features", "3", "--out", str(path), "--json",
+            "--topologies", "3", "--trainings", "1", "--transform", "linear")
+    assert p.returncode == 0, p.stderr
+    return path
+
+
+def strict_json(text: str):
+    def reject(name):
+        raise ValueError(f"bare {name} is not JSON")
+
+    return json.loads(text, parse_constant=reject)
+
+
 def test_train_json_keys_and_scores(table, tmp_path) -> None:
     """train --json prints r_train, r_val, r_test, mse, topology with ρ > 0.99 on a smooth
     target, and predict reproduces the targets of the same table."""
@@ -75,7 +101,7 @@ def test_cli_bad_input_one_line_exit_2(table, tmp_path) -> None:
     assert q.returncode == 2 and "model" in q.stderr and "Traceback" not in q.stderr
 
 
-def test_train_extra_parameter_and_predict_a_record(table, tmp_path) -> None:
+def test_train_extra_parameter_and_predict_a_record(table, record, tmp_path) -> None:
     """--extra adds a test parameter as an input (named in the JSON and the model); predict
     reads it from a table's column or from a record's scene; a bad name is one error line."""
     frame = pd.read_parquet(table)
@@ -93,9 +119,7 @@ def test_train_extra_parameter_and_predict_a_record(table, tmp_path) -> None:
     assert q.returncode == 0, q.stderr
     assert len(json.loads(q.stdout)["prediction"]) == 158
     # a real (1 s) record: the features from its signals, h0 from its scene
-    rec = tmp_path / "rec.parquet"
-    r = run("run", "paper_contact", "-t", "lti", "--set", "duration=1", "--out", str(rec))
-    assert r.returncode == 0, r.stderr
+    rec = record
     q = run("predict", str(model), str(rec), "--json")
     assert q.returncode == 0, q.stderr
     pred = json.loads(q.stdout)
@@ -113,3 +137,97 @@ def test_train_extra_parameter_and_predict_a_record(table, tmp_path) -> None:
                 str(tmp_path / "b.json"))
         assert b.returncode == 2 and f"extra: '{bad}'" in b.stderr and why in b.stderr
         assert "Traceback" not in b.stderr
+
+
+def test_predict_json_is_valid_with_nan_and_scores_finite_rows(table, model, tmp_path) -> None:
+    """A NaN feature gives a null prediction (strict JSON) and a warning naming the row; a NaN
+    target or prediction is left out of ρ and MSE instead of making them NaN."""
+    frame = pd.read_parquet(table)
+    frame.loc[0, "feature.e_rel_track"] = np.nan
+    frame.loc[1, "target.e_rel_ref"] = np.nan
+    path = tmp_path / "nan.parquet"
+    frame.to_parquet(path)
+    q = run("predict", str(model), str(path), "--json")
+    assert q.returncode == 0, q.stderr
+    pr = strict_json(q.stdout)
+    assert pr["prediction"][0] is None and pr["spread"][0] is None
+    assert pr["r"] > 0.9 and np.isfinite(pr["mse"]) and pr["n_scored"] == 156
+    assert "rows 0;" in q.stderr and "e_rel_track" in q.stderr
+
+
+def test_train_rejects_unwritable_out_and_plot_before_training(table, tmp_path) -> None:
+    """--out onto a folder or --plot below a file: one error line naming the option, exit 2,
+    before any training and without a temp file."""
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "file").write_text("")
+    common = ("--features", "3", "--topologies", "3", "--trainings", "1")
+    for args, field in (((("--out", str(tmp_path / "folder"))), "--out"),
+                        (("--out", str(tmp_path / "m.json"), "--plot",
+                          str(tmp_path / "file" / "p.png")), "--plot")):
+        p = run("train", str(table), *args, *common)
+        assert p.returncode == 2 and p.stderr.startswith(f"error: {field}:"), p.stderr
+        assert "Traceback" not in p.stderr and "training" not in p.stderr
+    assert sorted(q.name for q in tmp_path.iterdir()) == ["file", "folder"]
+
+
+def test_train_family_filter_needs_a_family_column(table, tmp_path) -> None:
+    """--family on a table without a 'family' column is one error line, exit 2."""
+    path = tmp_path / "nofam.parquet"
+    pd.read_parquet(table).drop(columns="family").to_parquet(path)
+    p = run("train", str(path), "--features", "3", "--family", "synthetic", "--out",
+            str(tmp_path / "m.json"))
+    assert p.returncode == 2 and "Traceback" not in p.stderr
+    assert "--family: 'synthetic' (table has no 'family' column)" in p.stderr
+
+
+def test_predict_warns_on_a_stopped_record_and_needs_ok_tests(table, model, record,
+                                                              tmp_path) -> None:
+    """A stopped record is predicted with a warning naming status and reason; a table without
+    any test of status ok is one error line, exit 2."""
+    from rths3d.record import Record
+
+    rec = Record.load(record)
+    rec.meta["status"], rec.meta["reason"] = "stopped", "leg 3 velocity over its limit"
+    stopped = rec.save(tmp_path / "stopped.parquet")
+    q = run("predict", str(model), str(stopped), "--json")
+    assert q.returncode == 0, q.stderr
+    assert len(strict_json(q.stdout)["prediction"]) == 1
+    assert "'stopped'" in q.stderr and "leg 3 velocity over its limit" in q.stderr
+    frame = pd.read_parquet(table)
+    frame["status"] = "stopped"
+    path = tmp_path / "allstopped.parquet"
+    frame.to_parquet(path)
+    p = run("predict", str(model), str(path))
+    assert p.returncode == 2 and "no test has status ok" in p.stderr
+    assert "Traceback" not in p.stderr
+
+
+def test_predict_reads_numerical_k_from_a_1dof_record(table, record, tmp_path) -> None:
+    """A model with the input numerical.k reads it from a 1-DOF record's 1×1 matrix K; a
+    record with a matrix numerical part is one error line saying it is not a scalar."""
+    from rths3d.ann import FidelityANN
+    from rths3d.dataset.runner import record_features
+    from rths3d.record import Record
+
+    frame = pd.read_parquet(table)
+    frame["param.numerical.k"] = np.linspace(2e3, 2e4, len(frame))  # N/m
+    path = tmp_path / "with_k.parquet"
+    frame.to_parquet(path)
+    model = tmp_path / "k.json"
+    p = run("train", str(path), "--features", "3", "--extra", "numerical.k", "--out",
+            str(model), "--json", "--topologies", "3", "--trainings", "1")
+    assert p.returncode == 0, p.stderr
+    q = run("predict", str(model), str(record), "--json")
+    assert q.returncode == 0, q.stderr
+    rec = Record.load(record)
+    k = rec.meta["params"]["numerical.K"]
+    assert np.shape(k) == (1, 1)
+    feats, net = record_features(rec), FidelityANN.load(model)
+    x = [[feats[n] for n in net.feature_names[:-1]] + [k[0][0]]]
+    pred = strict_json(q.stdout)["prediction"][0]
+    assert net.predict(np.array(x), warn=False)[0] == pytest.approx(pred)
+    rec.meta["params"]["numerical.K"] = [[1e4, 0.0], [0.0, 1e4]]
+    two = rec.save(tmp_path / "two_dof.parquet")
+    b = run("predict", str(model), str(two))
+    assert b.returncode == 2 and "Traceback" not in b.stderr
+    assert "numerical.k" in b.stderr and "not a scalar" in b.stderr

@@ -12,6 +12,7 @@ from .estimator import (
     DEFAULT_TOPOLOGIES,
     ExtrapolationWarning,
     FidelityANN,
+    NonFiniteInputWarning,
     TopologyScore,
     parse_topologies,
 )
@@ -24,7 +25,8 @@ from .training import AdamConfig, LMConfig, TrainResult, time_to_val_mse, train_
 
 __all__ = [
     "DEFAULT_TOPOLOGIES", "AdamConfig", "ExtrapolationWarning", "FidelityANN", "LMConfig",
-    "LearningPoint", "MinMax", "Topology", "TopologyScore", "TrainResult", "learning_curve",
-    "mse", "parse_topologies", "pearson_rho", "rank", "sensitivity_mean",
-    "sensitivity_permutation", "split_indices", "time_to_val_mse", "train_adam", "train_lm",
+    "LearningPoint", "MinMax", "NonFiniteInputWarning", "Topology", "TopologyScore",
+    "TrainResult", "learning_curve", "mse", "parse_topologies", "pearson_rho", "rank",
+    "sensitivity_mean", "sensitivity_permutation", "split_indices", "time_to_val_mse",
+    "train_adam", "train_lm",
 ]

@@ -15,6 +15,7 @@ reward nets that overfit.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import warnings
@@ -87,7 +88,7 @@ class Compress:
         out = np.array(x, dtype=float, copy=True)
         for j, (lg, sc) in enumerate(zip(self.log_cols, self.scale, strict=True)):
             if lg:
-                # nonpositive inputs lie outside the training range anyway (warned); clamp
+                # nonpositive inputs lie outside the fit data's range anyway (warned); clamp
                 out[:, j] = np.log10(np.maximum(out[:, j], 1e-300))
             elif sc > 0:
                 out[:, j] = np.arcsinh(out[:, j] / sc)
@@ -101,7 +102,15 @@ class Compress:
 
 
 class ExtrapolationWarning(UserWarning):
-    """Inputs lie outside the ranges the network was trained on (it extrapolates)."""
+    """Inputs lie outside the ranges of the data given to fit (the network extrapolates).
+
+    The ranges span every sample given to :meth:`FidelityANN.fit` (training, validation and
+    test together, as MATLAB's ``mapminmax`` on the whole data), not the training subset.
+    """
+
+
+class NonFiniteInputWarning(UserWarning):
+    """Inputs hold NaN or inf: the predictions of those samples are NaN."""
 
 
 @dataclass(frozen=True)
@@ -170,6 +179,7 @@ class FidelityANN:
         self.x_scale: MinMax | None = None
         self.y_scale: MinMax | None = None
         self.indices: dict[str, np.ndarray] = {}
+        self.n_samples: int | None = None
         self.topology: Topology | None = None
         self.members: list[torch.Tensor] = []
         self.search: list[TopologyScore] = []
@@ -183,9 +193,11 @@ class FidelityANN:
         """Search the topology and train the ensemble on X (N, d) → y (N,).
 
         ``X`` may be a pandas DataFrame (its column names become the feature names).
-        ``indices`` (keys ``train``, ``val``, ``test``) fixes the split; otherwise a random
-        70/15/15 split by ``seed`` is drawn and stored. ``progress``: a bar over the trainings
-        (a string labels it).
+        ``indices`` (keys ``train``, ``val``, ``test``: disjoint, non-empty integer row
+        numbers) fixes the split; otherwise a random 70/15/15 split by ``seed`` is drawn and
+        stored. The normalisation and the extrapolation ranges are those of all of X (every
+        set, as MATLAB's ``mapminmax`` on the whole data). ``progress``: a bar over the
+        trainings (a string labels it).
         """
         x, names = _as_matrix(X, feature_names)
         t = np.asarray(y, dtype=float).ravel()
@@ -201,9 +213,9 @@ class FidelityANN:
         self.y_scale = MinMax.fit(tc[:, None], "y")
         xn = self.x_scale.transform(xc)
         tn = self.y_scale.transform(tc[:, None])[:, 0]
-        self.indices = ({k: np.asarray(v, dtype=int) for k, v in indices.items()}
-                        if indices is not None else
+        self.indices = (_check_indices(indices, x.shape[0]) if indices is not None else
                         split_indices(x.shape[0], self.split, self.seed))
+        self.n_samples = int(x.shape[0])
         tr, va = self.indices["train"], self.indices["val"]
         results: dict[tuple[int, ...], list[TrainResult]] = {}
         self.search = []
@@ -244,25 +256,46 @@ class FidelityANN:
             raise ConfigError("model", "unfitted", "call fit() or load() first")
 
     def predict_members(self, X: Any, warn: bool = True) -> np.ndarray:
-        """Outputs of every ensemble member in target units, shape (n_members, N)."""
+        """Outputs of every ensemble member in target units, shape (n_members, N).
+
+        One sample may be given as a 1-D row of the ``n_in`` inputs (``X.iloc[0]``). Samples
+        with NaN or inf inputs get NaN (with a :class:`NonFiniteInputWarning`); inputs outside
+        the ranges of the data given to fit raise an :class:`ExtrapolationWarning`.
+        """
         self._check_fitted()
+        if self.topology.n_in > 1 and np.ndim(X) == 1:
+            # a 1-D input is one sample's row here, not N samples of a single feature
+            X = X.to_frame().T if hasattr(X, "to_frame") else np.asarray(X, dtype=float)[None]
         x, _ = _as_matrix(X, self.feature_names if self.feature_names else None,
                           expect=self.feature_names)
         if x.shape[1] != self.topology.n_in:
             raise ConfigError("X", x.shape, f"needs {self.topology.n_in} feature columns")
+        bad = ~np.isfinite(x)
         if warn:
-            out = self.raw_range.outside(x)
+            out = self.raw_range.outside(x) & ~bad
             if out.any():
-                cols = np.flatnonzero(out.any(axis=0))
-                names = [self.feature_names[c] if self.feature_names else str(c) for c in cols]
                 warnings.warn(
                     f"{int(out.any(axis=1).sum())} of {x.shape[0]} sample(s) lie outside the "
-                    f"training ranges of {', '.join(names)}: the network extrapolates",
-                    ExtrapolationWarning, stacklevel=3)
+                    f"ranges of {self._names(out)} in the data given to fit: the network "
+                    "extrapolates", ExtrapolationWarning, stacklevel=3)
+            if bad.any():
+                rows = np.flatnonzero(bad.any(axis=1))
+                shown = ", ".join(map(str, rows[:10])) + (", …" if rows.size > 10 else "")
+                warnings.warn(
+                    f"{rows.size} of {x.shape[0]} sample(s) have NaN/inf inputs (rows {shown}; "
+                    f"columns {self._names(bad)}): their predictions are NaN",
+                    NonFiniteInputWarning, stacklevel=3)
         xn = torch.as_tensor(self.x_scale.transform(self.compress.x(x)), dtype=DTYPE)
         with torch.no_grad():
             outs = np.stack([forward(self.topology, w, xn).numpy() for w in self.members])
-        return self.compress.y_inv(self.y_scale.inverse(outs[..., None])[..., 0])
+        outs = self.compress.y_inv(self.y_scale.inverse(outs[..., None])[..., 0])
+        # an inf input can saturate to a finite output, which would pass for a prediction
+        outs[:, bad.any(axis=1)] = np.nan
+        return outs
+
+    def _names(self, mask: np.ndarray) -> str:
+        cols = np.flatnonzero(mask.any(axis=0))
+        return ", ".join(self.feature_names[c] if self.feature_names else str(c) for c in cols)
 
     def predict(self, X: Any, return_std: bool = False, warn: bool = True
                 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
@@ -283,16 +316,28 @@ class FidelityANN:
 
         Keys ``r_train``, ``r_val``, ``r_test``, ``r_all`` (ensemble mean), ``mse`` (all
         samples, target units²), ``mse_<set>``, and per-member ρ lists ``members_r_<set>``
-        (for the median and worst over trainings).
+        (for the median and worst over trainings). X and y must be the samples given to fit:
+        the stored sets are their row numbers. Samples with a non-finite target or prediction
+        are left out.
         """
         self._check_fitted()
         t = np.asarray(y, dtype=float).ravel()
         outs = self.predict_members(X, warn=False)
+        n = self.n_samples
+        if n is None:  # a model saved before n_samples was stored: bound the indices at least
+            n = max((int(v.max()) + 1 for v in self.indices.values() if v.size), default=0)
+            n = max(n, t.size)
+        if t.size != n or outs.shape[1] != n:
+            raise ConfigError("scores", f"{outs.shape[1]} samples, {t.size} targets",
+                              f"needs the {n} samples given to fit (the stored train/val/test "
+                              "sets are their row numbers)")
         mean = outs.mean(axis=0)
+        finite = np.isfinite(t) & np.isfinite(mean)
         res: dict[str, Any] = {}
         sets = dict(self.indices)
         sets["all"] = np.arange(t.size)
         for name, idx in sets.items():
+            idx = idx[finite[idx]]
             res[f"r_{name}"] = pearson_rho(mean[idx], t[idx])
             res[f"mse_{name}"] = mse(mean[idx], t[idx])
             res[f"members_r_{name}"] = [pearson_rho(o[idx], t[idx]) for o in outs]
@@ -302,7 +347,8 @@ class FidelityANN:
 
     # ------------------------------------------------------------------ persistence
     def to_dict(self) -> dict[str, Any]:
-        """Everything needed to predict again: weights, normalisation, ranges, names, split."""
+        """Everything needed to predict again: weights, normalisation, the ranges of the data
+        given to fit, names, split."""
         self._check_fitted()
         return {
             "format": FORMAT,
@@ -318,6 +364,7 @@ class FidelityANN:
                          "scale": list(self.compress.scale), "log_y": self.compress.log_y},
             "y_range": self.y_scale.to_dict(),
             "indices": {k: v.tolist() for k, v in self.indices.items()},
+            "n_samples": self.n_samples,
             "members": [w.tolist() for w in self.members],
             "search": [s.__dict__ | {"hidden": list(s.hidden)} for s in self.search],
             "settings": {"topologies": [list(t) for t in self.topologies],
@@ -328,18 +375,49 @@ class FidelityANN:
         }
 
     def save(self, path: str | os.PathLike) -> Path:
-        """Write the model as JSON (atomic: temp file + rename). Floats round-trip exactly."""
+        """Write the model as JSON (atomic: temp file + rename). Floats round-trip exactly.
+
+        ConfigError (field ``path``) when the file cannot be written; no temp file is left.
+        """
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
+        text = json.dumps(self.to_dict())
         tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-        tmp.write_text(json.dumps(self.to_dict()))
-        os.replace(tmp, path)
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp.write_text(text)
+            os.replace(tmp, path)
+        except OSError as exc:
+            with contextlib.suppress(OSError):  # nothing to remove when the folder is a file
+                tmp.unlink(missing_ok=True)
+            raise ConfigError("path", str(path),
+                              f"cannot write the model: {exc.strerror or exc}") from exc
         return path
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> FidelityANN:
+        """The model of :meth:`to_dict`; ConfigError (field ``model…``) if it is damaged."""
+        if not isinstance(d, dict):
+            raise ConfigError("model", type(d).__name__, "must be a JSON object")
         if d.get("format") != FORMAT:
             raise ConfigError("model.format", d.get("format"), f"expected {FORMAT!r}")
+        missing = [k for k in _REQUIRED if k not in d]
+        if missing:
+            raise ConfigError(f"model.{missing[0]}", None, "required key of a model file")
+        try:
+            m = cls._from_dict(d)
+        except ConfigError:
+            raise
+        except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
+            # hand-edited or truncated files: name the problem instead of a traceback
+            what = (f"missing key {exc}" if isinstance(exc, KeyError)
+                    else f"{type(exc).__name__}: {exc}")
+            raise ConfigError("model", what, "malformed",
+                              message=f"model: malformed ({what})") from exc
+        _check_model(m)
+        return m
+
+    @classmethod
+    def _from_dict(cls, d: dict[str, Any]) -> FidelityANN:
         s = d.get("settings", {})
         m = cls(topologies=s.get("topologies"), n_trainings=s.get("n_trainings", 5),
                 split=tuple(s.get("split", (0.7, 0.15, 0.15))), seed=s.get("seed", 0),
@@ -355,6 +433,7 @@ class FidelityANN:
                                              "linear"))
         m.y_scale = MinMax.from_dict(d["y_range"])
         m.indices = {k: np.asarray(v, dtype=int) for k, v in d["indices"].items()}
+        m.n_samples = None if d.get("n_samples") is None else int(d["n_samples"])
         m.members = [torch.as_tensor(w, dtype=DTYPE) for w in d["members"]]
         m.search = [TopologyScore(**(e | {"hidden": tuple(e["hidden"])}))
                     for e in d.get("search", [])]
@@ -371,7 +450,60 @@ class FidelityANN:
             d = json.loads(path.read_text())
         except (OSError, ValueError) as exc:
             raise ConfigError("model", str(path), f"not a readable model file: {exc}") from exc
-        return cls.from_dict(d)
+        try:
+            return cls.from_dict(d)
+        except ConfigError as exc:
+            raise ConfigError("model", str(path), f"not a valid model file: {exc}") from exc
+
+
+_REQUIRED = ("feature_names", "n_in", "hidden", "x_range", "y_range", "indices", "members")
+
+
+def _check_model(m: FidelityANN) -> None:
+    """Shapes of a loaded model agree, so that a damaged file fails here, not in predict."""
+    n_in = m.topology.n_in
+    if len(m.feature_names) != n_in:
+        raise ConfigError("model.feature_names", len(m.feature_names), f"must name {n_in} inputs")
+    if not m.members:
+        raise ConfigError("model.members", 0, "needs at least one trained net")
+    for w in m.members:
+        if w.ndim != 1 or w.numel() != m.topology.n_weights:
+            raise ConfigError("model.members", tuple(w.shape),
+                              f"each net needs {m.topology.n_weights} weights for "
+                              f"topology {m.topology.label()} with {n_in} inputs")
+    ranges = {"x_range": m.x_scale, "raw_range": m.raw_range, "y_range": m.y_scale}
+    for name, r in ranges.items():
+        size = 1 if name == "y_range" else n_in
+        if r.lo.shape != (size,) or r.hi.shape != (size,):
+            raise ConfigError(f"model.{name}", (r.lo.shape, r.hi.shape),
+                              f"lo and hi need {size} value(s)")
+    c = m.compress
+    if len(c.log_cols) != n_in or len(c.scale) != n_in:
+        raise ConfigError("model.compress", len(c.log_cols), f"needs {n_in} columns")
+
+
+def _check_indices(indices: Any, n: int) -> dict[str, np.ndarray]:
+    """A given split: exactly train/val/test, each non-empty integer row numbers in [0, n),
+    pairwise disjoint (a sample in two sets would leak into validation or test)."""
+    if not isinstance(indices, dict) or set(indices) != {"train", "val", "test"}:
+        keys = sorted(indices) if isinstance(indices, dict) else type(indices).__name__
+        raise ConfigError("indices", keys, "exactly the keys train, val, test")
+    out = {}
+    for k in ("train", "val", "test"):
+        v = np.asarray(indices[k])
+        if v.ndim != 1 or v.size == 0:
+            raise ConfigError(f"indices[{k!r}]", v.shape, "a non-empty 1-D set of row numbers")
+        if v.dtype.kind not in "iu":
+            raise ConfigError(f"indices[{k!r}]", str(v.dtype), "row numbers must be integers")
+        if v.min() < 0 or v.max() >= n:
+            raise ConfigError(f"indices[{k!r}]", int(v.min() if v.min() < 0 else v.max()),
+                              f"row numbers must lie in [0, {n})")
+        out[k] = v.astype(int)
+    for a, b in (("train", "val"), ("train", "test"), ("val", "test")):
+        both = np.intersect1d(out[a], out[b])
+        if both.size:
+            raise ConfigError("indices", int(both[0]), f"row in both {a} and {b}")
+    return out
 
 
 def _as_matrix(X: Any, names: Sequence[str] | None,

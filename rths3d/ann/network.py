@@ -163,10 +163,5 @@ def init_weights(topo: Topology, rng: np.random.Generator) -> torch.Tensor:
     return torch.as_tensor(np.concatenate(parts), dtype=DTYPE)
 
 
-def n_weights_for(n_in: int, hidden: tuple[int, ...]) -> int:
-    """Number of weights of a net (convenience for topology tables)."""
-    return Topology(n_in, tuple(hidden)).n_weights
-
-
-__all__ = ["DTYPE", "Topology", "forward", "init_weights", "jacobian", "n_weights_for"]
+__all__ = ["DTYPE", "Topology", "forward", "init_weights", "jacobian"]
 

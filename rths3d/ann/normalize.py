@@ -1,8 +1,9 @@
-"""Min–max normalisation to [−1, 1] (MATLAB ``mapminmax``), and the training ranges.
+"""Min–max normalisation to [−1, 1] (MATLAB ``mapminmax``), and the ranges of the fit data.
 
 ``y = 2 (x − x_min) / (x_max − x_min) − 1`` per column. A constant column (x_max = x_min)
-maps to 0, as mapminmax does. The stored ranges are also the *training ranges*: inputs outside
-them make the network extrapolate, which the estimator warns about.
+maps to 0, as mapminmax does. The stored ranges are those of all the data given to fit
+(training, validation and test samples, as mapminmax on the whole data): inputs outside them
+make the network extrapolate, which the estimator warns about.
 """
 
 from __future__ import annotations
@@ -47,8 +48,10 @@ class MinMax:
         return np.where(self.hi > self.lo, z, 0.0)
 
     def inverse(self, z: np.ndarray) -> np.ndarray:
-        """Map normalised values back to data units."""
-        return (np.asarray(z, dtype=float) + 1.0) * 0.5 * self.span + self.lo
+        """Map normalised values back to data units (a constant column gives its value)."""
+        x = (np.asarray(z, dtype=float) + 1.0) * 0.5 * self.span + self.lo
+        # transform sends a constant column to 0, which the span-1 map would not undo
+        return np.where(self.hi > self.lo, x, self.lo)
 
     def outside(self, x: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
         """Boolean (N, d): where ``x`` lies outside the stored ranges (extrapolation)."""

@@ -166,7 +166,8 @@ def apply_and_score(model: FidelityANN | Sequence[FidelityANN], X: Any, y: np.nd
 
 
 def in_range(model: FidelityANN | Sequence[FidelityANN], X: Any) -> np.ndarray:
-    """Rows of X inside every training range (the paper kept only such linear samples)."""
+    """Rows of X inside every range of the data given to fit (the paper kept only such linear
+    samples)."""
     if not isinstance(model, FidelityANN):
         model = model[0]
     x = X.to_numpy(dtype=float) if hasattr(X, "to_numpy") else np.asarray(X, dtype=float)
@@ -210,7 +211,8 @@ def reproduce(contact_lti: Any, contact_stewart: Any | None = None, linear: Any 
     held out of training and used for testing (the Table-2 tests are then also tested).
     ``split_seeds``: train on each of these 70/15/15 splits and pool (default: ``seed`` only).
     ``stewart_in_range``: also score the Stewart tests whose features all lie inside the
-    training ranges (the paper kept only such samples of the linear system), when some do not.
+    ranges of the data given to fit (the paper kept only such samples of the linear system),
+    when some do not.
     ``progress``: a progress bar for every training run (they take minutes to hours on the
     large sweeps).
     ``models_out``: a dict that receives the trained estimators, one per split seed, under

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import math
+import os
 from pathlib import Path
 
 import typer
@@ -15,6 +17,38 @@ def _med_worst(values: list[float]) -> dict[str, float]:
 
     v = np.asarray(values, dtype=float)
     return {"median": float(np.median(v)), "worst": float(np.min(v))}
+
+
+def _json_line(res: dict) -> str:
+    """``res`` as one JSON line, NaN/inf as null: bare NaN (a prediction from NaN inputs, ρ of
+    constant data) is not JSON and breaks the reader."""
+
+    def clean(v):
+        if isinstance(v, float) and not math.isfinite(v):
+            return None
+        if isinstance(v, dict):
+            return {k: clean(x) for k, x in v.items()}
+        if isinstance(v, list | tuple):
+            return [clean(x) for x in v]
+        return v
+
+    return json.dumps(clean(res), allow_nan=False)
+
+
+def _check_writable(path: Path, field: str) -> None:
+    """Fail before the training (minutes to hours) instead of after it on a target that
+    cannot be written. Missing folders are fine: they are created when writing."""
+    from ..errors import ConfigError
+
+    if path.is_dir():
+        raise ConfigError(field, str(path), "is a folder, give a file name")
+    parent = path.parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        raise ConfigError(field, str(path), f"{parent} is not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ConfigError(field, str(path), f"folder {parent} is not writable")
 
 
 @app.command()
@@ -52,6 +86,9 @@ def train(
     from ..dataset.table import PARAM, training_data
     from ..errors import ConfigError
 
+    _check_writable(out, "--out")
+    if plot:
+        _check_writable(plot, "--plot")
     frame = read_table(table)
     X, y, _rows = training_data(frame, features, target, family or None, exclude or None,
                                 extra=extra or ())
@@ -61,7 +98,10 @@ def train(
                         seed=seed, transform=transform, bypass=bypass)
     model.target_name = target
     model.fit(X, y, progress=not as_json)
-    model.save(out)
+    try:
+        model.save(out)
+    except ConfigError as exc:
+        raise ConfigError("--out", str(out), exc.limit) from exc
     sc = model.scores(X, y)
     res = {"r_train": sc["r_train"], "r_val": sc["r_val"], "r_test": sc["r_test"],
            "mse": sc["mse"], "mse_test": sc["mse_test"], "topology": sc["topology"],
@@ -76,10 +116,14 @@ def train(
 
         mean, std = model.predict(X, return_std=True, warn=False)
         tr, te = model.indices["train"], model.indices["test"]
-        save_figures(plot, {"training": (y[tr], mean[tr]), "test": (y[te], mean[te])},
-                     spread={"test": std[te]}, title=f"feature set {features}")
+        try:
+            save_figures(plot, {"training": (y[tr], mean[tr]), "test": (y[te], mean[te])},
+                         spread={"test": std[te]}, title=f"feature set {features}")
+        except OSError as exc:
+            raise ConfigError("--plot", str(plot),
+                              f"cannot write the plot: {exc.strerror or exc}") from exc
     if as_json:
-        typer.echo(json.dumps(res))
+        typer.echo(_json_line(res))
     else:
         typer.echo(f"topology {'x'.join(map(str, res['topology']))}  "
                    f"ρ train {res['r_train']:.4f}  val {res['r_val']:.4f}  "
@@ -98,49 +142,81 @@ def predict(
 
     import numpy as np
 
-    from ..ann import ExtrapolationWarning, FidelityANN, pearson_rho
+    from ..ann import ExtrapolationWarning, FidelityANN, NonFiniteInputWarning, pearson_rho
     from ..dataset.store import read_table
     from ..dataset.table import FEATURE, PARAM, TARGET, input_column
+    from ..errors import ConfigError
 
     net = FidelityANN.load(model)
     frame = read_table(data)
+    not_scalar: dict[str, tuple[int, ...]] = {}
     if "t" in frame.columns and not any(c.startswith(FEATURE) for c in frame.columns):
         from ..dataset.runner import record_features
         from ..record import Record
 
         rec = Record.load(data)
+        status = rec.meta.get("status")
+        if status not in (None, "ok"):
+            typer.echo(f"warning: the record's status is {status!r} "
+                       f"({rec.meta.get('reason') or 'no reason given'}); its features "
+                       "describe a test that did not finish", err=True)
         row = {FEATURE + k: v for k, v in record_features(rec).items()}
         # a model with parameter inputs reads them from the record's scene
-        for k, v in (rec.meta.get("params") or {}).items():
+        params = rec.meta.get("params") or {}
+        for k, v in params.items():
             if isinstance(v, int | float):
                 row[PARAM + k] = float(v)
+        # the record stores numerical.m/c/k as the matrices M/C/K; a sweep's scalar shorthand
+        # is their single entry, which exists only for a 1-DOF numerical part
+        for big in "MCK":
+            col, v = f"{PARAM}numerical.{big.lower()}", params.get(f"numerical.{big}")
+            if v is None or col in row:
+                continue
+            v = np.asarray(v, dtype=float)
+            if v.size == 1:
+                row[col] = float(v.ravel()[0])
+            else:
+                not_scalar[col] = v.shape
         import pandas as pd
 
         frame = pd.DataFrame([row])
     cols = [input_column(n) for n in net.feature_names]
     missing = [c for c in cols if c not in frame.columns]
     if missing:
-        from ..errors import ConfigError
-
+        if missing[0] in not_scalar:
+            raise ConfigError("data", missing[0].removeprefix(PARAM),
+                              "the record's numerical part is not a scalar (matrix "
+                              f"{not_scalar[missing[0]]}): a model of numerical.m/c/k needs "
+                              "a 1-DOF record")
         raise ConfigError("data", missing[0], "feature column missing for this model")
     if "status" in frame.columns:
         frame = frame[frame["status"] == "ok"]
+        if frame.empty:
+            raise ConfigError("data", str(data), "no test has status ok")
     X = frame[cols].to_numpy(dtype=float)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ExtrapolationWarning)
+        warnings.simplefilter("always", NonFiniteInputWarning)
         mean, std = net.predict(X, return_std=True)
     extrap = [str(w.message) for w in caught if issubclass(w.category, ExtrapolationWarning)]
+    for w in caught:
+        if issubclass(w.category, NonFiniteInputWarning):
+            typer.echo(f"warning: {w.message}", err=True)
     res: dict = {"prediction": mean.tolist(), "spread": std.tolist(),
                  "target_name": net.target_name, "extrapolation": extrap}
     if "test_id" in frame.columns:
         res["test_id"] = frame["test_id"].tolist()
     tcol = TARGET + net.target_name
-    if tcol in frame.columns and len(mean) > 1:
+    if tcol in frame.columns:
         t = frame[tcol].to_numpy(dtype=float)
-        res["r"] = pearson_rho(mean, t)
-        res["mse"] = float(np.mean((mean - t) ** 2))
+        # one NaN target or prediction would make ρ and the MSE of the whole table NaN
+        ok = np.isfinite(t) & np.isfinite(mean)
+        if ok.sum() > 1:
+            res["r"] = pearson_rho(mean[ok], t[ok])
+            res["mse"] = float(np.mean((mean[ok] - t[ok]) ** 2))
+            res["n_scored"] = int(ok.sum())
     if as_json:
-        typer.echo(json.dumps(res))
+        typer.echo(_json_line(res))
         return
     for w in extrap:
         typer.echo(f"warning: {w}", err=True)
@@ -148,4 +224,6 @@ def predict(
     for i, m, s in zip(ids, mean, std, strict=True):
         typer.echo(f"{i}\t{net.target_name} = {m:.6g} ± {s:.2g}")
     if "r" in res:
-        typer.echo(f"ρ = {res['r']:.4f}  MSE = {res['mse']:.3g}")
+        scored = "" if res["n_scored"] == len(mean) else \
+            f"  ({res['n_scored']} of {len(mean)} tests with finite target and prediction)"
+        typer.echo(f"ρ = {res['r']:.4f}  MSE = {res['mse']:.3g}{scored}")

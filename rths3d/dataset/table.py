@@ -88,6 +88,10 @@ def training_data(frame: Any, feature_set: int, target: str = DEFAULT_TARGET,
     rows = frame
     if "status" in rows.columns:
         rows = rows[rows["status"] == "ok"]
+    for field, value in (("--family", families), ("--exclude", exclude)):
+        if value and "family" not in rows.columns:
+            raise ConfigError(field, value[0] if len(value) == 1 else list(value),
+                              "table has no 'family' column")
     if families:
         rows = rows[rows["family"].isin(families)]
     if exclude:
