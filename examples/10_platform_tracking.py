@@ -32,6 +32,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path("out/examples/10_platform_tracking"))
     args = ap.parse_args()
+    from rths3d.figures import check_output
+
+    check_output(args.out, "--out", folder=True)
 
     import matplotlib
 
@@ -78,4 +81,12 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    from rths3d.errors import RthsError
+
+    try:
+        main()
+    except RthsError as exc:  # a user mistake (flag, file, output folder): no traceback
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None

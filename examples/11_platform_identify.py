@@ -20,6 +20,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path("out/examples/11_platform_identify"))
     args = ap.parse_args()
+    from rths3d.figures import check_output
+
+    check_output(args.out, "--out", folder=True)
     cfg = PlatformConfig()
     res = identify_heave(cfg, poses={"home": (0,) * 6, "raised 25 mm": (0, 0, 0.025, 0, 0, 0)},
                          f_min=0.2, period=5.0, n_lines=24, progress=True)
@@ -34,4 +37,12 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    from rths3d.errors import RthsError
+
+    try:
+        main()
+    except RthsError as exc:  # a user mistake (flag, file, output folder): no traceback
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None

@@ -10,6 +10,8 @@ Run: ``python examples/12_platform_batch.py``
 
 from __future__ import annotations
 
+import argparse
+
 import numpy as np
 
 from rths3d.platform import PlatformBatch, PlatformConfig, sine_trajectory
@@ -19,6 +21,7 @@ PAYLOAD = ('<body name="payload"><geom type="box" size="0.08 0.08 0.04" pos="0 0
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()
     K = 8
     batch = PlatformBatch(PlatformConfig(), nsim=K, nthread=2, payload_xml=PAYLOAD)
     masses = np.linspace(0.5, 4.0, K)
@@ -40,4 +43,12 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    from rths3d.errors import RthsError
+
+    try:
+        main()
+    except RthsError as exc:  # a user mistake (flag, file, output folder): no traceback
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None

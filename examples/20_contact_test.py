@@ -30,6 +30,9 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=4.0, help="simulated time (s)")
     ap.add_argument("--out", default="out", help="output folder")
     args = ap.parse_args()
+    from rths3d.figures import check_output
+
+    check_output(args.out, "--out", folder=True)
     scene = load_scene(REPO / "scenes" / "paper_contact.toml", [f"duration={args.duration}"])
     for kind in ("ideal", "lti", "stewart"):
         res = run(scene, kind)
@@ -45,4 +48,12 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    from rths3d.errors import RthsError
+
+    try:
+        main()
+    except RthsError as exc:  # a user mistake (flag, file, output folder): no traceback
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None

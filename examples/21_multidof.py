@@ -41,4 +41,12 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    from rths3d.errors import RthsError
+
+    try:
+        main()
+    except RthsError as exc:  # a user mistake (flag, file, output folder): no traceback
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None

@@ -15,11 +15,12 @@ same numbers come from the command line: ``rths3d metrics OUT_DIR/linear_test.pa
 
 from __future__ import annotations
 
-import sys
+import argparse
 from pathlib import Path
 
 import numpy as np
 
+from rths3d.figures import check_output
 from rths3d.metrics import FEATURE_SETS, compute_measures, feature_row
 from rths3d.metrics.plots import plot_record
 from rths3d.record import Record
@@ -55,7 +56,11 @@ def simulate(seconds: float = 20.0, ideal: bool = False) -> dict[str, np.ndarray
     return {"t": t, "z_cmd": z_hist, "z_meas": zp_hist, "f_meas": f_hist, "f_ext": f_ext}
 
 
-def main(out_dir: Path) -> None:
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("out_dir", nargs="?", type=Path, default=Path("metrics_example_out"),
+                    help="folder for the record and plots (default: metrics_example_out)")
+    out_dir = check_output(ap.parse_args().out_dir, "OUT_DIR", folder=True)
     test = simulate()
     reference = simulate(ideal=True)
     meta = {"scene": "paper_linear (example)", "dt": DT, "transfer": "first-order lag + delay",
@@ -84,4 +89,12 @@ def main(out_dir: Path) -> None:
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]) if len(sys.argv) > 1 else Path("metrics_example_out"))
+    import sys
+
+    from rths3d.errors import RthsError
+
+    try:
+        main()
+    except RthsError as exc:  # a user mistake (flag, file, output folder): no traceback
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None

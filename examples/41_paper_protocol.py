@@ -8,7 +8,8 @@
 3. Print the results table next to the paper's Table 4 and write regression plots.
 
 Usage: ``python examples/41_paper_protocol.py [--out DIR] [--workers N] [--quick]
-[--transform linear|log] [--contact paper280_lti|contact1400_lti|table1_lti]
+[--trainings N] [--transform linear|log]
+[--contact paper280_lti|contact1400_lti|table1_lti|table1_lti_large]
 [--families families_large|families_wide|families|none] [--splits N] [--topologies 10x10;20x20]
 [--no-bypass] [--sets 1,2,3] [--extra experiment.h0,excitation.frequency]``.
 Sweeps are resumable: re-running reuses finished tests in DIR.
@@ -153,9 +154,12 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    from rths3d.errors import ConfigError
+    import sys
+
+    from rths3d.errors import RthsError
 
     try:
         main()
-    except ConfigError as exc:  # a user mistake (flag, spec, output folder): no traceback
-        raise SystemExit(f"error: {exc}") from None
+    except RthsError as exc:  # a user mistake (flag, file, output folder): no traceback
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None

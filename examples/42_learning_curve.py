@@ -7,7 +7,7 @@ training tests. A residual that keeps falling means data (and net capacity) limi
 prediction; a flat one means the Table-3 features do.
 
 Usage: ``python examples/42_learning_curve.py TABLE [TABLE ...] [--features 1,2,3]
-[--sizes 2000,8000,32000] [--topologies 20x20] [--trainings 5] [--out DIR]``, e.g. on the
+[--sizes 2000,8000,32000] [--topologies 20x20] [--trainings 5] [--test N] [--out DIR]``, e.g. on the
 sweep of ``scenes/sweeps/table1_lti_large.toml``. Prints one JSON line per point and writes
 ``learning_curve.png`` and ``learning_curve.json`` in DIR.
 """
@@ -31,6 +31,9 @@ def main() -> None:
                     help="held-out test tests (default: 15 %% of the stable tests)")
     ap.add_argument("--out", type=Path, default=Path("learning_curve_out"))
     args = ap.parse_args()
+    from rths3d.figures import check_output
+
+    check_output(args.out, "--out", folder=True)
 
     from rths3d.ann import learning_curve, parse_topologies
     from rths3d.ann.plots import save_learning_curve
@@ -67,9 +70,12 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    from rths3d.errors import ConfigError
+    import sys
+
+    from rths3d.errors import RthsError
 
     try:
         main()
-    except ConfigError as exc:  # a user mistake: no traceback
-        raise SystemExit(f"error: {exc}") from None
+    except RthsError as exc:  # a user mistake (flag, file, output folder): no traceback
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None

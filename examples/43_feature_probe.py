@@ -82,7 +82,8 @@ def main() -> None:
                 print(f"set {s} + {', '.join(extra) or '–'}: ρ test "
                       f"{100 * rows[-1]['r_test']:.1f} %", file=sys.stderr, flush=True)
     except RthsError as exc:
-        sys.exit(f"error: {exc}")
+        print(f"error: {exc}", file=sys.stderr)
+        sys.exit(2)
 
     print("| set | added parameters | n train | n test | ρ train % | ρ test % |")
     print("|---|---|---|---|---|---|")
@@ -93,4 +94,12 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    from rths3d.errors import RthsError
+
+    try:
+        main()
+    except RthsError as exc:  # a user mistake (flag, file, output folder): no traceback
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None

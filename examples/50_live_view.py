@@ -30,6 +30,10 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=0.0, help="serve this long, then exit")
     ap.add_argument("--out", help="save the record of the last run (.parquet/.csv)")
     args = ap.parse_args()
+    if args.out:
+        from rths3d.figures import check_output
+
+        check_output(args.out, "--out")
 
     live = LiveRun.from_scene(args.scene, transfer=args.transfer, speed=args.speed,
                               out=args.out)
@@ -53,4 +57,12 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    from rths3d.errors import RthsError
+
+    try:
+        main()
+    except RthsError as exc:  # a user mistake (flag, file, output folder): no traceback
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None

@@ -41,6 +41,10 @@ def main() -> None:
     ap.add_argument("--port", type=int, default=8080)
     ap.add_argument("--seconds", type=float, default=0.0, help="serve this long, then exit")
     args = ap.parse_args()
+    if args.screenshot:
+        from rths3d.figures import check_output
+
+        check_output(args.screenshot, "--screenshot")
 
     path = Path(args.record) if args.record else make_record(Path("out/contact_delay.parquet"))
     record = Record.load(path)
@@ -70,4 +74,12 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    from rths3d.errors import RthsError
+
+    try:
+        main()
+    except RthsError as exc:  # a user mistake (flag, file, output folder): no traceback
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None

@@ -15,6 +15,7 @@ The same from the command line::
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 from rths3d.diagnose import Diagnosis, load_measurement, synthetic_measurement
@@ -24,6 +25,7 @@ OUT = Path("out") / "60_diagnosis"
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()
     hidden = {"coulomb_friction": 40.0, "fts_lowpass": 0.003}  # N, s
     path = synthetic_measurement(hidden, duration=4.0, seed=5).save(OUT / "measurement.parquet")
     rec, channels, warnings = load_measurement(path)
@@ -49,4 +51,12 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    from rths3d.errors import RthsError
+
+    try:
+        main()
+    except RthsError as exc:  # a user mistake (flag, file, output folder): no traceback
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None

@@ -8,6 +8,8 @@ Writes ``rths_benchmark_case1.png`` in the current folder.
 
 from __future__ import annotations
 
+import argparse
+
 import numpy as np
 
 from rths3d.rthsbench import (
@@ -23,6 +25,7 @@ J = [f"J{i}" for i in range(1, 10)]
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()
     gm = load_excitation("ElCentro")  # El Centro 1940, scaled by 0.4 in each run
     print("case  row        " + "".join(f"{k:>7}" for k in J))
     results = {}
@@ -54,4 +57,12 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    from rths3d.errors import RthsError
+
+    try:
+        main()
+    except RthsError as exc:  # a user mistake (flag, file, output folder): no traceback
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None

@@ -25,7 +25,8 @@ def save_figure(fig: Any, path: str | os.PathLike, *, title: str = "", dpi: int 
                 rect: tuple[float, float, float, float] | None = None) -> Path:
     """Give ``fig`` its title, lay it out (inside ``rect``, figure fractions) and write the PNG.
 
-    The folder of ``path`` is created. Returns the path written.
+    The folder of ``path`` is created; a path without a suffix gets ``.png`` (as matplotlib
+    would add). Returns the path written.
     """
     if title:
         fig.suptitle(title)
@@ -33,10 +34,38 @@ def save_figure(fig: Any, path: str | os.PathLike, *, title: str = "", dpi: int 
         fig.tight_layout()
     else:
         fig.tight_layout(rect=rect)
-    out = Path(path)
+    out = png_path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=dpi)
     return out
 
 
-__all__ = ["new_figure", "save_figure"]
+def png_path(path: str | os.PathLike) -> Path:
+    """``path`` as a PNG file name: ``.png`` appended when it has no suffix."""
+    out = Path(path)
+    return out if out.suffix else out.with_name(out.name + ".png")
+
+
+def check_output(path: str | os.PathLike, option: str, *, folder: bool = False) -> Path:
+    """Check, before any long work, that ``path`` can be written: a file (its folder is
+    created) or, with ``folder=True``, a folder (created). ConfigError naming ``option``."""
+    from .errors import ConfigError
+
+    p = Path(path)
+    if folder and p.exists() and not p.is_dir():
+        raise ConfigError(option, str(p), "exists and is not a folder")
+    if not folder and p.is_dir():
+        raise ConfigError(option, str(p), "is a folder; give a file name")
+    where = p if folder else p.parent
+    try:
+        where.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        file = next((q for q in (where, *where.parents) if q.exists() and not q.is_dir()), None)
+        why = f"{str(file)!r} is a file, not a folder" if file else exc.strerror or str(exc)
+        raise ConfigError(option, str(p), f"cannot create the folder: {why}") from None
+    if not os.access(where, os.W_OK):
+        raise ConfigError(option, str(p), f"folder {str(where)!r} is not writable")
+    return p
+
+
+__all__ = ["check_output", "new_figure", "png_path", "save_figure"]

@@ -252,3 +252,26 @@ def test_missing_library_effect_is_unexplained_not_noise():
     if last.proposal is None:
         assert last.status == "unexplained" and not last.noise_only
     assert not any(r.noise_only for r in rounds)
+
+
+def test_cli_duplicate_effect_and_report_on_a_file_exit_2_before_diagnosing(tmp_path, capsys,
+                                                                           monkeypatch):
+    """An effect given twice with --add, or a --report folder that is a file, exits 2 with one
+    line before the measurement is even read."""
+    import rths3d.diagnose as diagnose_pkg
+
+    path = synthetic_measurement({}, seed=1).save(tmp_path / "m.parquet")
+
+    def no_load(*_a, **_k):
+        raise AssertionError("the measurement was read before the options were checked")
+
+    monkeypatch.setattr(diagnose_pkg, "load_measurement", no_load)
+    for args, needle in (
+        (["--add", "delay", "--add", "delay=0.01"], "effect 'delay' given twice"),
+        (["--report", str(path)], f"--report: '{path}' (exists and is not a folder)"),
+        (["--report", str(path / "rep")], "is a file, not a folder"),
+    ):
+        with pytest.raises(SystemExit) as ex:
+            cli_main(["diagnose", str(path), *args])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert ex.value.code == 2 and len(err) == 1 and needle in err[0]

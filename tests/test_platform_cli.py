@@ -66,3 +66,54 @@ def test_info_reports_geometry_and_condition(capsys):
     assert info["jacobian_cond_home_scaled"] < 2.0
     assert info["payload_mass_kg"] == pytest.approx(2.0)
     assert len(info["static_leg_force_n"]) == 6 and min(info["static_leg_force_n"]) > 0
+
+
+def test_identify_out_folder_gets_default_name_and_plot_path_is_real(tmp_path, capsys):
+    """`identify --out DIR/` (and an existing folder) writes DIR/platform_heave_tf.json, and
+    `--plot NAME` without a suffix prints the PNG actually written (NAME.png)."""
+    from rths3d.platform.identify import DEFAULT_TF_PATH, load_heave_tf
+
+    new = tmp_path / "assets"
+    code, out, err = _run(["platform", "identify", "--quick", "--out", f"{new}/"], capsys)
+    assert code == 0, err
+    assert load_heave_tf(new / DEFAULT_TF_PATH.name).fit_error < 0.05
+    assert f"TF file {new / DEFAULT_TF_PATH.name}" in out
+    code, out, err = _run(["platform", "identify", "--quick", "--out", str(new), "--plot",
+                           str(tmp_path / "adir")], capsys)
+    assert code == 0, err
+    assert f"Bode plot {tmp_path / 'adir.png'}" in out and (tmp_path / "adir.png").is_file()
+    assert sorted(p.name for p in new.iterdir()) == ["platform_heave_bode.png",
+                                                     DEFAULT_TF_PATH.name]
+
+
+def test_tf_save_to_unwritable_path_is_config_error_without_temp_file(tmp_path):
+    """`IdentifyResult.save` onto a folder raises ConfigError and leaves no temporary file."""
+    import numpy as np
+
+    from rths3d.errors import ConfigError
+    from rths3d.platform.identify import HeaveTF, IdentifyResult
+
+    f = np.array([0.5, 1.0, 2.0])
+    res = IdentifyResult(HeaveTF((1.0,), (0.01, 1.0), 0.001), f, {"home": np.ones(3) + 0j},
+                         {"home": (0.0,) * 6}, {"home": 0.0})
+    (tmp_path / "tf.json").mkdir()
+    with pytest.raises(ConfigError, match="cannot write"):
+        res.save(tmp_path / "tf.json")
+    assert [p.name for p in tmp_path.iterdir()] == ["tf.json"]
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["track", "--out", "{file}"], "--out: '{file}' (exists and is not a folder)"),
+    (["track", "--out", "{file}/sub"], "is a file, not a folder"),
+    (["track", "--ramp", "-1", "--out", "{tmp}/t"], "--ramp: -1.0 (must be >= 0 s)"),
+    (["identify", "--out", "{file}/tf.json"], "--out: '{file}/tf.json'"),
+    (["identify", "--out", "{tmp}/tf.json", "--plot", "{file}/b.png"], "--plot:"),
+])
+def test_bad_output_paths_and_ramp_exit_2_before_running(tmp_path, capsys, args, needle):
+    """Unusable output paths and a negative ramp exit 2 with one line, before any run."""
+    file = tmp_path / "c.parquet"
+    file.write_text("x")
+    fill = {"file": str(file), "tmp": str(tmp_path)}
+    code, out, err = _run(["platform", *(a.format(**fill) for a in args)], capsys)
+    assert code == 2 and needle.format(**fill) in err
+    assert len(err.strip().splitlines()) == 1 and out == ""

@@ -344,3 +344,113 @@ def test_lower_loop_rate_raises_structural_error(elcentro):
     j4 = [run_case(BenchmarkConfig(case=1, dt=1 / fs, t_end=15.0, noise=False), gm=elcentro)
           .table_row()["J4"] for fs in (1024, 2048, 4096)]
     assert j4[0] > j4[1] > j4[2]
+
+
+@pytest.mark.parametrize("item, message", [
+    ("benchmark.dt=abc", "benchmark.dt: 'abc' (must be a number)"),
+    ("benchmark.excitation=5", "benchmark.excitation: 5 (must be a string)"),
+    ("controller.lead_num=abc", "controller.lead_num: 'abc' (must be a list of numbers)"),
+    ("controller.lead_num=5", "controller.lead_num: 5 (must be a list of numbers)"),
+    ("controller.kp=abc", "controller.kp: 'abc' (must be a number)"),
+    ("controller.phase_lead=1", "controller.phase_lead: 1 (must be a bool, true or false)"),
+    ('controller.tracking={type="pi",kp="a",ki=1}',
+     "controller.tracking.kp: 'a' (must be a number)"),
+    ('controller.lead={type="tf",num=1,den=[1,2]}',
+     "controller.lead.num: 1 (must be a list of numbers)"),
+    ("io.noise_seed=abc", "io.noise_seed: 'abc' (must be an integer)"),
+    ("io.noise=maybe", "io.noise: 'maybe' (must be a bool, true or false)"),
+    ("plant.k_e=abc", "plant.k_e: 'abc' (must be a number)"),
+])
+def test_bad_scene_values_name_field_value_and_type(item, message):
+    """Each ill-typed scene value raises ConfigError `field: value (must be …)`."""
+    from rths3d.rthsbench.scene import config_from_dict
+    from rths3d.scene import apply_overrides
+
+    with pytest.raises(ConfigError) as ex:
+        config_from_dict(apply_overrides({}, [item]))
+    assert str(ex.value) == message
+
+
+def test_good_scene_values_still_convert():
+    """Well-typed scene values (ints for floats, lists, bools) give the configuration."""
+    from rths3d.rthsbench.scene import config_from_dict
+
+    cfg = config_from_dict({"benchmark": {"case": 2, "dt": 1 / 2048, "intensity": 1},
+                            "io": {"noise": False, "noise_seed": 3},
+                            "plant": {"k_e": 1250000},
+                            "controller": {"kp": 3, "lead_num": [40, 8000.0],
+                                           "phase_lead": True}})
+    assert (cfg.case, cfg.intensity, cfg.noise, cfg.noise_seed) == (2, 1.0, False, 3)
+    assert cfg.plant.k_e == 1.25e6 and cfg.controller.lead_num == (40.0, 8000.0)
+    assert cfg.controller.kp == 3.0 and isinstance(cfg.controller.kp, float)
+
+
+@pytest.mark.parametrize("intensity", [0.0, -0.4])
+def test_intensity_must_be_positive(intensity):
+    """A zero or negative intensity raises ConfigError naming it."""
+    with pytest.raises(ConfigError, match=r"intensity: .* \(must be finite and > 0\)"):
+        BenchmarkConfig(intensity=intensity)
+
+
+def test_data_folder_given_without_data_is_an_error(tmp_path):
+    """`data_dir(path)` for a path without data/ (missing or a file) raises ConfigError naming
+    it instead of falling back to the default data."""
+    from rths3d.rthsbench.config import data_dir
+
+    f = tmp_path / "f.csv"
+    f.write_text("x")
+    for p in (tmp_path / "nonexistent", f, tmp_path):
+        with pytest.raises(ConfigError, match=r"data: .* \(no data/ folder in it"):
+            data_dir(p)
+
+
+def test_scene_that_is_a_folder_or_binary_is_config_error(tmp_path):
+    """A folder or a binary file given as a benchmark scene raises ConfigError, not an OSError
+    or UnicodeDecodeError."""
+    from rths3d.rthsbench.scene import load_benchmark_scene
+
+    binary = tmp_path / "bin.toml"
+    binary.write_bytes(bytes(range(256)) * 4)
+    for p in (tmp_path, binary):
+        with pytest.raises(ConfigError, match="not a text TOML file"):
+            load_benchmark_scene(p)
+
+
+def test_cli_output_paths_checked_before_running_and_json_nan_is_null(tmp_path, capsys,
+                                                                     monkeypatch):
+    """`--plot` under a file and `--data` without data/ exit 2 before any run; `--json`
+    writes non-finite figures as null (strict JSON)."""
+    import rths3d.rthsbench as rb
+    from rths3d.cli import main
+
+    calls = []
+
+    class Fake:
+        status, reason, peak_force, j = "ok", "", 100.0, {"J1": 1.0}
+
+        def table_row(self):
+            return {f"J{i}": (float("nan") if i == 1 else 1.0) for i in range(1, 10)}
+
+    monkeypatch.setattr(rb, "load_excitation", lambda *a, **k: None)
+    monkeypatch.setattr(rb, "run_case", lambda *a, **k: calls.append(1) or Fake())
+    blocker = tmp_path / "c.parquet"
+    blocker.write_text("x")
+    with pytest.raises(SystemExit) as ex:
+        main(["benchmark", "rths", "--case", "1", "--plot", str(blocker / "x.png")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert ex.value.code == 2 and len(err) == 1 and err[0].startswith("error: --plot:")
+    assert not calls
+    with pytest.raises(SystemExit) as ex:
+        main(["benchmark", "rths", "--case", "1", "--json"])
+    assert ex.value.code == 0
+
+    def strict(name):
+        raise ValueError(f"{name} is not JSON")
+
+    out = json.loads(capsys.readouterr().out, parse_constant=strict)
+    assert out["cases"]["1"]["J1"] is None and out["cases"]["1"]["J2"] == 1.0
+    monkeypatch.undo()
+    with pytest.raises(SystemExit) as ex:
+        main(["benchmark", "rths", "--case", "1", "--data", str(tmp_path / "nonexistent")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert ex.value.code == 2 and len(err) == 1 and "no data/ folder" in err[0]

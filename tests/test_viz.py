@@ -396,6 +396,37 @@ def test_cli_bad_input_is_one_line_exit_2(tmp_path, args, needle, record):
     assert needle in out.stderr and "Traceback" not in out.stderr
 
 
+@pytest.mark.parametrize("args, needle", [
+    (["rec.csv", "--host", "192.0.2.1"], "--host: '192.0.2.1' (not an address of this machine)"),
+    (["rec.csv", "--host", "no-such-host.invalid"], "not an address of this machine"),
+    (["rec.csv", "--transfer", "lti"], "--transfer: 'lti' (applies to a live scene run only"),
+    (["rec.csv", "--set", "duration=1"], "--set:"),
+    (["rec.csv", "--out", "x.parquet"], "--out:"),
+    (["paper_contact", "--out", "foo.txt"], "--out: 'foo.txt' (the record file must end in"),
+    (["paper_contact", "--out", "rec.csv/x.parquet"], "'rec.csv' is a file, not a folder"),
+])
+def test_cli_host_and_options_checked_before_serving(tmp_path, args, needle, record):
+    """A host not of this machine, replay-only misuse of live-run options and an unusable
+    --out exit 2 with one line at once (no hang, nothing run)."""
+    record.save(tmp_path / "rec.csv")
+    out = subprocess.run([sys.executable, "-m", "rths3d", "view", *args, "--port", "0",
+                          "--seconds", "1"], cwd=tmp_path, capture_output=True, text=True,
+                         timeout=60)
+    assert out.returncode == 2, out.stderr
+    assert needle in out.stderr and len(out.stderr.strip().splitlines()) == 1
+    assert "rths3d view:" not in out.stdout
+
+
+def test_check_host_accepts_this_machine_and_rejects_others():
+    """`check_host` passes loopback names and raises ConfigError for a foreign address."""
+    from rths3d.viz.app import check_host
+
+    for host in ("127.0.0.1", "localhost", "0.0.0.0"):
+        check_host(host)
+    with pytest.raises(ConfigError, match="not an address of this machine"):
+        check_host("192.0.2.1")
+
+
 # ---------------------------------------------------------------------- running measures
 def test_running_measures_of_a_delayed_sine(record):
     """Over two whole periods of z = A sin ωt, z' = A sin ω(t − τ), F'_m = k z': e_rel,track

@@ -62,6 +62,12 @@ def rths(
         raise ConfigError("--case", case, "must be 1, 2, 3 or 4 (0 for all)")
     if trials < 0:
         raise ConfigError("--trials", trials, "must be ≥ 0")
+    if plot:
+        from ..figures import check_output, png_path
+
+        plot_path = check_output(png_path(plot), "--plot")
+        trials_path = plot_path.with_name(plot_path.stem + "_trials" + plot_path.suffix)
+        check_output(trials_path, "--plot")
     if scene:
         base = load_benchmark_scene(scene, set_)
     else:
@@ -119,18 +125,14 @@ def rths(
                                                                  strict=True)}
             out["cases"][str(c)] = entry
     if plot:
-        from pathlib import Path
-
         from ..rthsbench.plots import plot_result, plot_trials
 
-        out["plot"] = str(plot_result(first, plot))
+        out["plot"] = str(plot_result(first, plot_path))
         if trial_rows:
-            p = Path(plot)
             out["plot_trials"] = str(plot_trials(
-                trial_rows, p.with_name(p.stem + "_trials" + (p.suffix or ".png")),
-                PUBLISHED_TABLE3 if published_applies else None))
+                trial_rows, trials_path, PUBLISHED_TABLE3 if published_applies else None))
     if as_json:
-        typer.echo(json.dumps(out))
+        typer.echo(json.dumps(_finite(out), allow_nan=False))
         return
     head = "case  row        " + "".join(k.rjust(7) for k in J_KEYS)
     typer.echo(f"RTHS benchmark: {base.excitation} × {intensity}, noise "
@@ -166,6 +168,17 @@ def rths(
     if not published_applies:
         typer.echo("(the paper publishes Table 3 only for El Centro × 0.4, nominal plant, "
                    "noise on)")
+
+
+def _finite(o: Any) -> Any:
+    """``o`` with every non-finite float replaced by None (JSON null)."""
+    if isinstance(o, float) and not math.isfinite(o):
+        return None
+    if isinstance(o, dict):
+        return {k: _finite(v) for k, v in o.items()}
+    if isinstance(o, list | tuple):
+        return [_finite(v) for v in o]
+    return o
 
 
 def _overrides_only(items: list[str]) -> dict:

@@ -36,8 +36,16 @@ def diagnose(
     from ..diagnose import Diagnosis, load_measurement
     from ..diagnose.bench import resolve_scene
     from ..effects import parse_effect_arg
+    from ..errors import ConfigError
+    from ..figures import check_output
 
     adds = [parse_effect_arg(a) for a in add]
+    names = [name for name, _ in adds]
+    for a, name in zip(add, names, strict=True):
+        if names.count(name) > 1:
+            raise ConfigError("--add", a, f"effect {name!r} given twice")
+    if report is not None:
+        check_output(report, "--report", folder=True)
     rec, channels, warns = load_measurement(measurement)
     bench, kind = resolve_scene(scene, rec.meta)
     diag = Diagnosis(rec, bench, model=kind, top_k=top_k)

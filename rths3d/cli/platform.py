@@ -7,11 +7,12 @@ stays fast.
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import typer
 
-from ..figures import new_figure, save_figure
+from ..figures import check_output, new_figure, png_path, save_figure
 from ._app import app
 
 platform_app = typer.Typer(
@@ -97,14 +98,17 @@ def track(
     Prints the achieved delay (and what the actuator settings predict), the relative RMS
     tracking error and the parasitic motion in the other five DOF.
     """
+    from ..errors import ConfigError
     from ..platform import PlatformSim, sine_trajectory, tracking_figures
     from ..platform import track as run_track
 
+    if ramp < 0:
+        raise ConfigError("--ramp", ramp, "must be >= 0 s")
+    check_output(out, "--out", folder=True)
     cfg = _config(kp, kv, timeconst, delay, velocity_ff, substeps)
     poses = sine_trajectory(dof, amplitude, frequency, duration, cfg.dt, ramp=ramp)
     sim = PlatformSim(cfg, payload_xml=_payload(payload_mass))
     rec = run_track(poses, sim=sim, progress=not as_json)
-    out.mkdir(parents=True, exist_ok=True)
     rec.meta["scene"] = f"platform sine {dof}"
     rec.meta["params"] = {"dof": dof, "amplitude": amplitude, "frequency": frequency,
                           "duration": duration, "payload_mass": payload_mass}
@@ -139,8 +143,9 @@ def track(
 
 @platform_app.command()
 def identify(
-    out: Path = typer.Option(None, help="TF file to write (default: the repository's "
-                                        "assets/platform_heave_tf.json)."),
+    out: str = typer.Option(None, help="TF file to write, or a folder to write "
+                                       "platform_heave_tf.json in (default: the repository's "
+                                       "assets/platform_heave_tf.json)."),
     plot: Path = typer.Option(None, help="Bode plot PNG (default: beside the TF file)."),
     n_num: int = typer.Option(1, help="Numerator order of the fitted TF."),
     n_den: int = typer.Option(2, help="Denominator order of the fitted TF."),
@@ -159,11 +164,17 @@ def identify(
 
     if n_num < 0 or n_den < 1 or n_num > n_den:
         raise ConfigError("--n-num/--n-den", (n_num, n_den), "need 0 <= n_num <= n_den, n_den >= 1")
+    tf_path = Path(out) if out else DEFAULT_TF_PATH
+    if out and (tf_path.is_dir() or out.endswith(("/", os.sep))):
+        tf_path = tf_path / DEFAULT_TF_PATH.name
+    check_output(tf_path, "--out")
+    png_out = png_path(plot or tf_path.with_name(tf_path.stem.replace("_tf", "") + "_bode.png"))
+    check_output(png_out, "--plot")
     cfg = _config(kp, kv, timeconst, delay, velocity_ff, substeps)
     kw = {"f_min": 0.2, "period": 5.0, "n_lines": 20} if quick else {}
     res = identify_heave(cfg, n_num=n_num, n_den=n_den, progress=True, **kw)
-    path = res.save(out or DEFAULT_TF_PATH)
-    png = res.bode_plot(plot or path.with_name(path.stem.replace("_tf", "") + "_bode.png"))
+    path = res.save(tf_path)
+    png = res.bode_plot(png_out)
     tf = res.tf
     typer.echo(f"num   {list(tf.num)}")
     typer.echo(f"den   {list(tf.den)}")

@@ -53,8 +53,23 @@ def view(
         raise ConfigError("--rate", rate, "updates per second must be in (0, 30]")
     if seconds < 0:
         raise ConfigError("--seconds", seconds, "must be >= 0")
+    from ..viz.app import check_host
+
+    check_host(host, "--host")
+    replay = Path(target).suffix.lower() in RECORD_SUFFIXES
+    if replay:
+        for option, given in (("--transfer", transfer), ("--set", set_), ("--out", out)):
+            if given:
+                raise ConfigError(option, given, "applies to a live scene run only, not to "
+                                  "the replay of a record")
+    elif out:
+        from ..figures import check_output
+
+        if Path(out).suffix.lower() not in RECORD_SUFFIXES:
+            raise ConfigError("--out", out, "the record file must end in .parquet or .csv")
+        check_output(out, "--out")
     common = dict(host=host, port=port, exaggeration=exaggeration, span=span, rate=rate)
-    if Path(target).suffix.lower() in RECORD_SUFFIXES:
+    if replay:
         from ..record import Record
         from ..viz import Viewer, buffer_from_record
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from numbers import Real
 from typing import Any
 
 import numpy as np
@@ -78,6 +79,23 @@ class DifferenceEquation:
         return scipy.signal.lfilter(self.b, self.a, np.asarray(u, dtype=float))
 
 
+def number_field(field: str, value: Any) -> float:
+    """``value`` as a float, or ConfigError ``field: value (must be a number)``."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, Real):
+        raise ConfigError(field, value, "must be a number")
+    return float(value)
+
+
+def numbers_field(field: str, value: Any) -> tuple[float, ...]:
+    """``value`` as a tuple of floats, or ConfigError ``field: value (must be a list of
+    numbers)``."""
+    if isinstance(value, str | bytes | Mapping) or not isinstance(value, Sequence | np.ndarray):
+        raise ConfigError(field, value, "must be a list of numbers")
+    if not all(isinstance(v, Real) and not isinstance(v, bool | np.bool_) for v in value):
+        raise ConfigError(field, value, "must be a list of numbers")
+    return tuple(float(v) for v in value)
+
+
 def pi_controller(kp: float, ki: float, dt: float) -> DifferenceEquation:
     """Tustin discretisation of ``G_C(s) = K_p + K_i/s`` (K_p dimensionless, K_i in 1/s)."""
     for name, v in (("controller.kp", kp), ("controller.ki", ki)):
@@ -106,11 +124,14 @@ def controller_from_dict(spec: Mapping[str, Any], dt: float, field: str = "contr
     kind = spec.get("type")
     try:
         if kind == "pi":
-            return pi_controller(float(spec["kp"]), float(spec["ki"]), dt)
+            return pi_controller(number_field(f"{field}.kp", spec["kp"]),
+                                 number_field(f"{field}.ki", spec["ki"]), dt)
         if kind == "tf":
-            return lead_lag(list(spec["num"]), list(spec["den"]), dt)
+            return lead_lag(numbers_field(f"{field}.num", spec["num"]),
+                            numbers_field(f"{field}.den", spec["den"]), dt)
         if kind == "difference":
-            return DifferenceEquation.from_arrays(list(spec["b"]), list(spec["a"]), dt)
+            return DifferenceEquation.from_arrays(numbers_field(f"{field}.b", spec["b"]),
+                                                  numbers_field(f"{field}.a", spec["a"]), dt)
     except KeyError as exc:
         raise ConfigError(f"{field}.{exc.args[0]}", None, f"required for type {kind!r}") \
             from exc

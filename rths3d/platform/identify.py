@@ -34,6 +34,7 @@ File format (``assets/platform_heave_tf.json``, JSON, SI units)::
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -268,12 +269,21 @@ class IdentifyResult:
         }
 
     def save(self, path: str | os.PathLike = DEFAULT_TF_PATH) -> Path:
-        """Write the JSON file atomically; returns its path."""
+        """Write the JSON file atomically; returns its path.
+
+        A path that cannot be written (a folder, say) raises ConfigError and leaves no
+        temporary file behind."""
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-        tmp.write_text(json.dumps(self.to_json(), indent=1))
-        os.replace(tmp, path)
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp.write_text(json.dumps(self.to_json(), indent=1))
+            os.replace(tmp, path)
+        except OSError as exc:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+            raise ConfigError("out", str(path), f"cannot write the TF file: "
+                                                f"{exc.strerror or exc}") from None
         return path
 
     def bode_plot(self, path: str | os.PathLike) -> Path:

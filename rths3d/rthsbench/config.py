@@ -5,7 +5,7 @@ The benchmark's structure, plant and controller are built from their published p
 benchmark's data folder (``data/ground_motion_<name>.csv``, time in s and unscaled
 acceleration in m/s²). That folder is found, in order, from the ``data_dir`` argument, the
 environment variable ``RTHS3D_BENCHMARK_DIR``, or ``../shared/external/rths-benchmark``
-beside the repository.
+beside the repository; a ``data_dir`` given without ``data/`` in it is an error.
 """
 
 from __future__ import annotations
@@ -29,14 +29,19 @@ ENV_VAR = "RTHS3D_BENCHMARK_DIR"
 
 
 def data_dir(path: str | Path | None = None) -> Path:
-    """The benchmark data folder (holding ``data/``); ConfigError naming the places tried."""
+    """The benchmark data folder (holding ``data/``); ConfigError naming the places tried
+    (only ``path`` when it is given)."""
+    if path:
+        if not (Path(path) / "data").is_dir():
+            raise ConfigError("data", str(path), "no data/ folder in it; the benchmark folder "
+                              "holds data/ground_motion_<name>.csv")
+        return Path(path)
     tried = []
-    for cand in (path, os.environ.get(ENV_VAR)):
-        if cand:
-            p = Path(cand)
-            if (p / "data").is_dir():
-                return p
-            tried.append(str(p))
+    env = os.environ.get(ENV_VAR)
+    if env:
+        if (Path(env) / "data").is_dir():
+            return Path(env)
+        tried.append(env)
     p = Path(__file__).resolve().parents[2] / ".." / "shared" / "external" / "rths-benchmark"
     if (p / "data").is_dir():
         return p.resolve()
@@ -137,7 +142,8 @@ class BenchmarkConfig:
             raise ConfigError("case", self.case, "must be 1, 2, 3 or 4")
         object.__setattr__(self, "excitation", excitation_name(self.excitation))
         checks = [
-            ("intensity", self.intensity, math.isfinite(self.intensity), "must be finite"),
+            ("intensity", self.intensity, math.isfinite(self.intensity) and self.intensity > 0,
+             "must be finite and > 0"),
             ("dt", self.dt, self.dt > 0.0 and self.dt <= 0.01, "must be in (0, 0.01] s"),
             ("q", self.q, self.q >= 0.0, "must be ≥ 0 m"),
             ("sat", self.sat, self.sat > 0.0, "must be > 0 m"),

@@ -28,11 +28,15 @@ from __future__ import annotations
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import fields, replace
+from numbers import Integral
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..errors import ConfigError
 from ..lti import controller_from_dict
+from ..lti.controllers import number_field, numbers_field
 from .config import BenchmarkConfig, ControllerParams
 from .plant import PlantParams
 
@@ -54,6 +58,33 @@ def _check_keys(table: str, data: Mapping[str, Any], allowed: Sequence[str]) -> 
                               f"{', '.join(allowed)})")
 
 
+_INTS = ("case", "noise_seed")
+_BOOLS = ("noise", "noise_shared", "force_delay", "quantize", "phase_lead")
+_STRINGS = ("excitation", "noise_generator", "derivative", "ground_interp", "reference",
+            "convention")
+_LISTS = ("lead_num", "lead_den")
+
+
+def _convert(field: str, value: Any) -> Any:
+    """One scene value converted to its field's type; ConfigError naming the field if not."""
+    key = field.rpartition(".")[2]
+    if key in _INTS:
+        if isinstance(value, bool) or not isinstance(value, Integral):
+            raise ConfigError(field, value, "must be an integer")
+        return int(value)
+    if key in _BOOLS:
+        if not isinstance(value, bool | np.bool_):
+            raise ConfigError(field, value, "must be a bool, true or false")
+        return bool(value)
+    if key in _STRINGS:
+        if not isinstance(value, str):
+            raise ConfigError(field, value, "must be a string")
+        return value
+    if key in _LISTS:
+        return numbers_field(field, value)
+    return number_field(field, value)
+
+
 def config_from_dict(raw: Mapping[str, Any]) -> BenchmarkConfig:
     """Validate a scene mapping (as read from TOML) into a :class:`BenchmarkConfig`."""
     known = (*_TABLES, "plant", "controller")
@@ -66,29 +97,27 @@ def config_from_dict(raw: Mapping[str, Any]) -> BenchmarkConfig:
     for table, keys in _TABLES.items():
         data = raw.get(table, {})
         _check_keys(table, data, keys)
-        kw.update(data)
-    dt = float(kw.get("dt", BenchmarkConfig.dt))
+        kw.update({k: _convert(f"{table}.{k}", v) for k, v in data.items()})
+    dt = kw.get("dt", BenchmarkConfig.dt)
     plant_raw = raw.get("plant", {})
     _check_keys("plant", plant_raw, [f.name for f in fields(PlantParams)])
     ctrl_raw = dict(raw.get("controller", {}))
     _check_keys("controller", ctrl_raw, [f.name for f in fields(ControllerParams)])
-    for key in ("tracking", "lead"):
-        if key in ctrl_raw:
-            spec = ctrl_raw[key]
-            if not isinstance(spec, Mapping):
-                raise ConfigError(f"controller.{key}", spec, "must be a table with a type")
-            ctrl_raw[key] = controller_from_dict(spec, dt, field=f"controller.{key}")
-    for key in ("lead_num", "lead_den"):
-        if key in ctrl_raw:
-            ctrl_raw[key] = tuple(float(v) for v in ctrl_raw[key])
+    for key, value in ctrl_raw.items():
+        if key in ("tracking", "lead"):
+            if not isinstance(value, Mapping):
+                raise ConfigError(f"controller.{key}", value, "must be a table with a type")
+            ctrl_raw[key] = controller_from_dict(value, dt, field=f"controller.{key}")
+        else:
+            ctrl_raw[key] = _convert(f"controller.{key}", value)
     try:
-        plant = PlantParams(**{k: float(v) for k, v in plant_raw.items()})
+        plant = PlantParams(**{k: number_field(f"plant.{k}", v) for k, v in plant_raw.items()})
         ctrl = replace(ControllerParams(), **ctrl_raw)
         return BenchmarkConfig(plant=plant, controller=ctrl, **kw)
     except (TypeError, ValueError) as exc:
         if isinstance(exc, ConfigError):
             raise
-        raise ConfigError("scene", None, str(exc)) from exc
+        raise ConfigError("scene", message=f"scene: {exc}") from exc
 
 
 def load_benchmark_scene(path: str | Path, overrides: Sequence[str] | Mapping[str, Any] = ()
@@ -97,10 +126,14 @@ def load_benchmark_scene(path: str | Path, overrides: Sequence[str] | Mapping[st
     from ..scene import apply_overrides
 
     p = Path(path)
-    if not p.is_file():
+    if not p.exists():
         raise ConfigError("scene", str(p), "file not found")
+    if not p.is_file():
+        raise ConfigError("scene", str(p), "not a text TOML file")
     try:
-        raw = tomllib.loads(p.read_text())
+        raw = tomllib.loads(p.read_text(encoding="utf-8"))
+    except UnicodeDecodeError:
+        raise ConfigError("scene", str(p), "not a text TOML file") from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError("scene", str(p), f"not valid TOML ({exc})") from exc
     return config_from_dict(apply_overrides(raw, overrides))

@@ -56,6 +56,32 @@ class RunControl:
     """The run waits (paused) for the page's Resume or Run / restart."""
 
 
+def check_host(host: str, field: str = "host", timeout: float = 5.0) -> None:
+    """ConfigError unless ``host`` resolves (within ``timeout`` s) to an address of this
+    machine that a server can bind (viser would otherwise wait forever)."""
+    import socket
+
+    found: dict[str, Any] = {}
+
+    def _resolve() -> None:
+        try:
+            found["infos"] = socket.getaddrinfo(host, 0, type=socket.SOCK_STREAM)
+        except (OSError, UnicodeError):
+            pass
+
+    worker = threading.Thread(target=_resolve, name="rths3d-resolve", daemon=True)
+    worker.start()
+    worker.join(timeout)
+    for family, kind, proto, _, addr in found.get("infos", ()):
+        try:
+            with socket.socket(family, kind, proto) as sock:
+                sock.bind((addr[0], 0, *addr[2:]))
+            return
+        except OSError:
+            continue
+    raise ConfigError(field, host, "not an address of this machine")
+
+
 class Viewer:
     """Browser view of a stream of samples (live) or of a saved record (replay).
 
@@ -141,6 +167,7 @@ class Viewer:
         """Start the server, build the scene and panels and begin updating."""
         import viser
 
+        check_host(self._host)
         self.server = viser.ViserServer(host=self._host, port=self._port, verbose=False)
         self.server.gui.configure_theme(control_width="large", dark_mode=False,
                                         show_logo=False)
