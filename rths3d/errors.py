@@ -7,6 +7,7 @@ non-zero code, without a traceback. Programming errors stay ordinary exceptions.
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 
@@ -29,6 +30,11 @@ class ConfigError(RthsError, ValueError):
             shown = "missing" if value is None else repr(value)
             message = f"{field}: {shown}" + (f" ({limit})" if limit else "")
         super().__init__(message)
+
+    def __reduce__(self):
+        # rebuilt from its fields (not from the message alone), so it crosses process pools
+        return (functools.partial(type(self), message=str(self)),
+                (self.field, self.value, self.limit), self.__dict__)
 
 
 class RecordError(RthsError, ValueError):
@@ -63,6 +69,11 @@ class SafetyStop(RthsError):
             f"stopped at t = {self.t:.3f} s: {quantity} = {self.value:.6g}{u} exceeds the "
             f"limit {self.limit:.6g}{u}" + (f" (test {self.test})" if test else "")
         )
+
+    def __reduce__(self):
+        # rebuilt from its fields: the default would call __init__ with the message only
+        return (type(self), (self.quantity, self.value, self.limit, self.t, self.test,
+                             self.unit), self.__dict__)
 
     @property
     def reason(self) -> str:

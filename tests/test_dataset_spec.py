@@ -232,3 +232,102 @@ def test_paper280_lti_and_stewart_share_dynamics() -> None:
                              if not k.startswith("transfer."))) for t in tests}
 
     assert points("paper280_lti") == points("paper280_stewart")
+
+
+@pytest.mark.parametrize("patch, field", [
+    ({"grid": 5}, "grid"),
+    ({"fixed": 3}, "fixed"),
+    ({"sample": {"n": 1, "k": {"uniform": ["a", 1]}}}, "sample.k"),
+    ({"sample": {"n": "x", "k": {"uniform": [0.0, 1.0]}}}, "sample.n"),
+    ({"sample": {"n": 2.7, "k": {"uniform": [0.0, 1.0]}}}, "sample.n"),
+    ({"subset": True}, "subset"),
+    ({"grids": {"k": [1.0]}}, "grids"),
+])
+def test_malformed_family_values_are_config_errors(patch, field) -> None:
+    """Tables given as scalars, non-numeric ranges, non-integer n/subset and unknown family
+    keys are ConfigErrors naming the field, not tracebacks or silently ignored."""
+    with pytest.raises(ConfigError, match=field.replace(".", r"\.")):
+        parse_spec(spec_dict(**patch))
+
+
+@pytest.mark.parametrize("sweep, field", [
+    ({"batchsize": 2}, "sweep.batchsize"),
+    ({"keep_records": "false"}, "sweep.keep_records"),
+    ({"batch_size": True}, "sweep.batch_size"),
+    ({"duration": True}, "sweep.duration"),
+])
+def test_malformed_sweep_settings_are_config_errors(sweep, field) -> None:
+    """Unknown [sweep] keys, a non-boolean keep_records and booleans for numbers are refused."""
+    d = spec_dict()
+    d["sweep"] = d["sweep"] | sweep
+    with pytest.raises(ConfigError, match=field.replace(".", r"\.")):
+        parse_spec(d)
+
+
+def test_sweep_given_as_array_of_tables_is_a_config_error() -> None:
+    """[[sweep]] (a list) instead of [sweep] names the section."""
+    d = spec_dict()
+    d["sweep"] = [d["sweep"]]
+    with pytest.raises(ConfigError, match="sweep"):
+        parse_spec(d)
+
+
+def test_subset_larger_than_the_family_is_refused() -> None:
+    """subset above the number of a family's tests is a ConfigError naming the count."""
+    spec = parse_spec(spec_dict(grid={"k": [1.0, 2.0, 3.0]}, subset=4))
+    with pytest.raises(ConfigError, match=r"subset.*3 tests"):
+        spec.tests()
+
+
+def test_delay_transfer_is_accepted() -> None:
+    """transfer = "delay", a transfer kind of scenes, is a valid family transfer."""
+    assert parse_spec(spec_dict(transfer="delay")).families[0].transfer == "delay"
+
+
+def test_stewart_timeconst_text_is_a_config_error() -> None:
+    """A non-numeric transfer.timeconst on the Stewart path is a ConfigError when batching."""
+    spec = parse_spec(spec_dict(grid={"k": [1.0]}, transfer="stewart",
+                                fixed={"transfer.timeconst": "fast"}))
+    with pytest.raises(ConfigError, match="transfer.timeconst"):
+        batches_of(spec)
+
+
+def test_mixed_value_types_in_a_column_are_stored_as_text(tmp_path) -> None:
+    """A parameter that is a number in one part and text in another (or both in one part)
+    is written and merged as text; missing values stay missing."""
+    st = SweepStore(tmp_path, "s", "abc", 2, 4).open()
+    st.write_part("b00000", [{"test_id": "a", "p": 1.0}, {"test_id": "b", "p": "[[1.0]]"}])
+    st.write_part("b00001", [{"test_id": "c", "p": 2.0}, {"test_id": "d", "p": float("nan")}])
+    frame = st.merge(["b00000", "b00001"], {"name": "s"})
+    assert frame["p"].tolist()[:3] == ["1.0", "[[1.0]]", "2.0"]
+    assert pd.isna(frame["p"].iloc[3])
+    pd.testing.assert_frame_equal(read_table(tmp_path / "s.parquet"), frame)
+
+
+def test_store_refuses_edited_scene_and_names_batch_size(tmp_path) -> None:
+    """Resuming with a changed scene hash or batch size is refused with a one-line reason;
+    a manifest without scene hashes (older rths3d) is accepted."""
+    import json
+
+    SweepStore(tmp_path, "s", "abc", 2, 4, {"f": "h1"}).open()
+    with pytest.raises(ConfigError, match="scene file changed"):
+        SweepStore(tmp_path, "s", "abc", 2, 4, {"f": "h2"}).open()
+    with pytest.raises(ConfigError, match="batch_size differs"):
+        SweepStore(tmp_path, "s", "abc", 3, 4, {"f": "h1"}).open()
+    man = tmp_path / "manifest.json"
+    old = json.loads(man.read_text())
+    del old["scenes"]
+    man.write_text(json.dumps(old))
+    SweepStore(tmp_path, "s", "abc", 2, 4, {"f": "h2"}).open()
+
+
+def test_store_bad_folder_and_corrupt_manifest_are_config_errors(tmp_path) -> None:
+    """--out naming a file and an unreadable manifest.json are ConfigErrors."""
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    with pytest.raises(ConfigError, match="out"):
+        SweepStore(afile, "s", "abc", 2, 4).open()
+    (tmp_path / "d").mkdir()
+    (tmp_path / "d" / "manifest.json").write_text("{bad")
+    with pytest.raises(ConfigError, match="unreadable manifest"):
+        SweepStore(tmp_path / "d", "s", "abc", 2, 4).open()

@@ -230,3 +230,192 @@ def test_predict_on_a_kept_record_matches_table_row(tiny_spec, reference_table, 
     assert p.returncode == 0, p.stderr
     got = json.loads(p.stdout)["prediction"][0]
     assert got == pytest.approx(float(model.predict(X.iloc[:1], warn=False)[0]), rel=1e-9)
+
+
+NOISY = """
+[sweep]
+name = "noisy"
+duration = 1.0
+seed = 0
+batch_size = 4
+
+[[family]]
+name = "contact"
+scene = "paper_contact"
+transfer = "lti"
+[family.fixed]
+"sensor.noise_std" = 5.0
+[family.grid]
+"numerical.k" = [500.0, 500.0]
+"""
+
+
+def test_noisy_test_result_does_not_depend_on_its_batch(tmp_path) -> None:
+    """A noisy test's result depends on its own seed only: equal in a batch of two and alone."""
+    from dataclasses import replace
+
+    p = tmp_path / "noisy.toml"
+    p.write_text(NOISY)
+    spec = load_spec(p)
+    together = run_sweep(spec, tmp_path / "a", workers=1, progress=False)
+    alone = run_sweep(replace(spec, batch_size=1), tmp_path / "b", workers=1, progress=False)
+    e = together["target.e_rel_ref"].to_numpy()
+    np.testing.assert_array_equal(e, alone["target.e_rel_ref"].to_numpy())
+    assert e[0] != e[1]  # two seeds, two noise draws
+
+
+def test_sensor_model_per_test_seeds_are_independent_of_batch() -> None:
+    """With one seed per test, a test's sensor noise is that of its seed alone, reset included."""
+    from rths3d.transfer import SensorModel
+
+    two = SensorModel(2, 1, 1e-3, noise_std=1.0, seed=[5, 6])
+    one = SensorModel(1, 1, 1e-3, noise_std=1.0, seed=[6])
+    a = [two(np.zeros((2, 1)))[1, 0] for _ in range(3)]
+    b = [one(np.zeros((1, 1)))[0, 0] for _ in range(3)]
+    assert a == b and len(set(a)) == 3
+    two.reset()
+    assert two(np.zeros((2, 1)))[1, 0] == a[0]
+
+
+def test_errors_survive_pickling() -> None:
+    """ConfigError and SafetyStop cross a process boundary with their message and fields."""
+    import pickle
+
+    from rths3d.errors import ConfigError, SafetyStop
+
+    e = pickle.loads(pickle.dumps(ConfigError("numerical.m", -1.0, "must be > 0")))
+    assert (str(e), e.field, e.value, e.limit) == \
+        ("numerical.m: -1.0 (must be > 0)", "numerical.m", -1.0, "must be > 0")
+    s = SafetyStop("fts force", 600.0, 500.0, 1.25, 3, "N")
+    s2 = pickle.loads(pickle.dumps(s))
+    assert str(s2) == str(s) and (s2.quantity, s2.test, s2.unit) == ("fts force", 3, "N")
+
+
+@pytest.mark.parametrize("old, new, match", [
+    ('scene = "paper_contact"', 'scene = "nope"', "nope"),
+    ('"numerical.k"', '"numerical.kk"', "numerical.kk"),
+])
+def test_bad_scene_or_parameter_name_refused_before_the_folder(tmp_path, old, new,
+                                                                match) -> None:
+    """A missing scene or a parameter name its scene lacks is one ConfigError raised before
+    the output folder is created."""
+    from rths3d.errors import ConfigError
+
+    p = tmp_path / "bad.toml"
+    p.write_text(TINY.replace(old, new))
+    with pytest.raises(ConfigError, match=match):
+        run_sweep(load_spec(p), tmp_path / "out", workers=1, progress=False)
+    assert not (tmp_path / "out").exists()
+
+
+def test_scene_relative_to_the_spec_runs_from_another_working_folder(tmp_path,
+                                                                     monkeypatch) -> None:
+    """A scene path relative to the spec is resolved by the submitting process: a worker
+    whose working folder differs still runs the test."""
+    from rths3d.dataset.runner import run_rows
+
+    repo = Path(__file__).resolve().parents[1]
+    (tmp_path / "spec" / "my").mkdir(parents=True)
+    (tmp_path / "spec" / "my" / "c.toml").write_text(
+        (repo / "scenes" / "paper_contact.toml").read_text())
+    (tmp_path / "spec" / "s.toml").write_text(TINY.replace(
+        'scene = "paper_contact"', 'scene = "my/c.toml"').replace("[1.0e3, 1.0e4]", "[1.0e3]")
+        .replace("[4.81, 9.62]", "[4.81]").replace("[0.5, 1.0]", "[0.5]")
+        .replace("choice = [2e-3, 10e-3]", "choice = [2e-3]"))
+    monkeypatch.chdir(tmp_path / "spec")
+    spec = load_spec("s.toml")
+
+    def elsewhere(spec, tests, rec_dir):
+        os.chdir(tmp_path)
+        return run_rows(spec, tests, rec_dir)
+
+    table = run_sweep(spec, tmp_path / "out", workers=1, progress=False, rows_fn=elsewhere)
+    assert table["status"].tolist() == ["ok"]
+
+
+def _stub_rows(spec, tests, rec_dir):
+    return [{"test_id": t["test_id"], "status": "ok"} for t in tests]
+
+
+def test_edited_scene_refuses_to_resume(tmp_path) -> None:
+    """Editing a family's scene file between runs into one folder is a one-line refusal."""
+    from rths3d.errors import ConfigError
+
+    repo = Path(__file__).resolve().parents[1]
+    scene = tmp_path / "c.toml"
+    scene.write_text((repo / "scenes" / "paper_contact.toml").read_text())
+    p = tmp_path / "s.toml"
+    p.write_text(TINY.replace('scene = "paper_contact"', 'scene = "c.toml"'))
+    run_sweep(load_spec(p), tmp_path / "out", workers=1, progress=False, rows_fn=_stub_rows,
+              max_batches=1)
+    scene.write_text(scene.read_text().replace("stroke = 0.04", "stroke = 0.05"))
+    with pytest.raises(ConfigError, match="scene file changed"):
+        run_sweep(load_spec(p), tmp_path / "out", workers=1, progress=False,
+                  rows_fn=_stub_rows)
+
+
+def test_workers_and_scheduler_checked_before_the_folder(tiny_spec, tmp_path) -> None:
+    """--workers 0 and a malformed scheduler address are ConfigErrors; --workers 0 leaves no
+    output folder behind."""
+    from rths3d.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="workers"):
+        run_sweep(load_spec(tiny_spec), tmp_path / "o", workers=0, progress=False)
+    assert not (tmp_path / "o").exists()
+    with pytest.raises(ConfigError, match="scheduler"):
+        run_sweep(load_spec(tiny_spec), tmp_path / "d", scheduler="nonsense", progress=False)
+
+
+def test_workers_with_scheduler_prints_a_note(tiny_spec, tmp_path, capsys) -> None:
+    """--workers together with --scheduler prints a one-line note that it is ignored."""
+    from rths3d.cli import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(["sweep", str(tiny_spec), "--out", str(tmp_path), "--workers", "2",
+              "--scheduler", "nonsense", "--quiet"])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and "--workers is ignored" in err and "Traceback" not in err
+
+
+def _fail_first_batch(spec, tests, rec_dir):
+    from rths3d.dataset import batches_of
+
+    if tests[0]["test_id"] == batches_of(spec)[0][1][0]["test_id"]:
+        raise RuntimeError("boom")
+    time.sleep(1.0)
+    return _stub_rows(spec, tests, rec_dir)
+
+
+def test_failed_batch_keeps_the_batches_that_finished(tiny_spec, tmp_path) -> None:
+    """When a pool batch fails, the batches still under way finish and are written before the
+    error is raised."""
+    with pytest.raises(RuntimeError, match="boom"):
+        run_sweep(load_spec(tiny_spec), tmp_path, workers=2, progress=False,
+                  rows_fn=_fail_first_batch)
+    parts = {p.stem for p in (tmp_path / "parts").glob("b*.parquet")}
+    assert parts and "b00000" not in parts
+
+
+def test_run_rows_leaves_numpy_error_state_alone(tiny_spec) -> None:
+    """A batch run does not change numpy's global floating-point error handling."""
+    from rths3d.dataset.runner import run_rows
+
+    spec = load_spec(tiny_spec)
+    with np.errstate(all="warn"):
+        run_rows(spec, spec.tests()[:1])
+        assert np.geterr()["invalid"] == "warn"
+
+
+def test_cli_reports_errors_apart_and_exits_1(tmp_path, capsys) -> None:
+    """Tests with status 'error' are counted apart from stopped ones and make the exit code 1;
+    the table is still written."""
+    from rths3d.cli import main
+
+    p = tmp_path / "err.toml"
+    p.write_text(FRAGILE.split("[[family]]\nname = \"weak_sensor\"")[0]
+                 + "[[family]]" + FRAGILE.split("[[family]]")[2])
+    with pytest.raises(SystemExit) as exc:
+        main(["sweep", str(p), "--out", str(tmp_path / "out"), "--workers", "1", "--quiet"])
+    out = capsys.readouterr().out
+    assert exc.value.code == 1 and "1 ok, 0 stopped, 1 error" in out
+    assert (tmp_path / "out" / "fragile.parquet").is_file()

@@ -25,7 +25,8 @@ def sweep(
     """Run every test of SPEC not yet finished in OUT and write OUT/`<name>`.parquet.
 
     Resumable: finished batches are kept; re-running skips them. Unstable tests are recorded
-    with their reason.
+    with their reason. Exit code 1 when a test could not run (status ``error``, e.g. an
+    invalid parameter value); the table is written all the same.
     """
     from dataclasses import replace
 
@@ -35,10 +36,19 @@ def sweep(
     s = load_spec(spec)
     if keep_records:
         s = replace(s, keep_records=True)
+    if scheduler and workers is not None:
+        typer.echo("note: --workers is ignored with --scheduler (the cluster's workers run "
+                   "the batches)", err=True)
     frame = run_sweep(s, out, workers=workers, scheduler=scheduler, progress=not quiet)
     if frame is None:
         typer.echo("sweep incomplete (see parts in the output folder)")
         raise typer.Exit(1)
-    n_ok = int((frame["status"] == "ok").sum()) if "status" in frame.columns else len(frame)
-    typer.echo(f"{len(frame)} tests ({n_ok} ok, {len(frame) - n_ok} stopped) → "
-               f"{table_path(s, out)}")
+    status = frame["status"] if "status" in frame.columns else None
+    n_ok = int((status == "ok").sum()) if status is not None else len(frame)
+    n_err = int((status == "error").sum()) if status is not None else 0
+    typer.echo(f"{len(frame)} tests ({n_ok} ok, {len(frame) - n_ok - n_err} stopped, "
+               f"{n_err} error) → {table_path(s, out)}")
+    if n_err:
+        # an error is a test that could not run (bad value, failed measures), not an
+        # instability: the data set is not what the spec asked for
+        raise typer.Exit(1)

@@ -10,6 +10,8 @@ cluster needs no shared file system (except for ``keep_records``).
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import itertools
 import os
 import time
@@ -43,6 +45,8 @@ def batches_of(spec: SweepSpec) -> list[tuple[str, list[dict[str, Any]]]]:
     def kind_of(fam) -> str | None:
         if fam.transfer:
             return fam.transfer
+        if fam.name in spec.scenes:
+            return spec.scenes[fam.name].transfer.kind
         try:  # the scene sets it; an unreadable scene fails when the batch runs
             return load_scene(spec.scene_path(fam)).transfer.kind
         except ConfigError:
@@ -64,6 +68,52 @@ def batches_of(spec: SweepSpec) -> list[tuple[str, list[dict[str, Any]]]]:
     return [(f"b{i:05d}", c) for i, c in enumerate(chunks)]
 
 
+_UNKNOWN_NAME = ("unknown field", "is not a table")
+
+
+def prepare(spec: SweepSpec) -> SweepSpec:
+    """``spec`` with every family's base scene loaded here, in the submitting process.
+
+    A missing or invalid scene, or a parameter name the scene does not have (each family's
+    fixed, grid and sample keys are applied to its base scene once), is one ConfigError
+    before anything runs; the workers get the scenes with the spec, so they need neither the
+    scene files nor this process's working folder. Bad parameter *values* stay per-test
+    ``error`` rows.
+    """
+    from ..loop import scene_with
+    from ..scene import load_scene
+
+    scenes = {}
+    for fam in spec.families:
+        path = spec.scene_path(fam).resolve()
+        try:
+            base = load_scene(path)
+        except ConfigError as exc:
+            raise ConfigError(exc.field, exc.value, exc.limit,
+                              message=f"family {fam.name!r}: {exc}") from None
+        probe = base.with_transfer(fam.transfer) if fam.transfer else base
+        firsts = {**{k: v[0] for k, v in fam.grid.items()}, **fam.fixed,
+                  **{k: (lo[0] if kind == "choice" else lo)
+                     for k, (kind, lo, _) in fam.sample.items()}}
+        for key, value in firsts.items():
+            try:
+                scene_with(probe, {key: value})
+            except ConfigError as exc:
+                if any(u in exc.limit for u in _UNKNOWN_NAME):
+                    raise ConfigError(f"family {fam.name!r} parameter", key,
+                                      f"scene {fam.scene!r} has no such key; {exc.field}: "
+                                      f"{exc.limit}") from None
+        scenes[fam.name] = base
+    return dataclasses.replace(spec, base_dir=str(Path(spec.base_dir).resolve()),
+                               scenes=scenes)
+
+
+def scene_hashes(spec: SweepSpec) -> dict[str, str]:
+    """Hash of each family's base scene file (guards resuming after a scene was edited)."""
+    return {f.name: hashlib.sha256(spec.scene_path(f).read_bytes()).hexdigest()[:16]
+            for f in spec.families}
+
+
 def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = None,
               scheduler: str | None = None, progress: bool = True,
               max_batches: int | None = None, rows_fn: RowsFn | None = None
@@ -74,14 +124,19 @@ def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = 
     ``scheduler``: address of a Dask distributed scheduler (``tcp://host:port``); when given,
     batches are submitted to that cluster instead. ``max_batches`` stops after that many new
     batches (for tests and staged runs; the table is then not merged). The merged table is
-    written to ``out/<name>.parquet`` once every batch is done.
+    written to ``out/<name>.parquet`` once every batch is done. If a batch fails, the batches
+    that finished are written before the error is raised.
     """
     from .runner import run_rows
 
+    # every mistake is reported before the output folder is created or touched
+    if workers is not None and (isinstance(workers, bool) or workers < 1):
+        raise ConfigError("workers", workers, "must be >= 1")
     rows_fn = rows_fn or run_rows
+    spec = prepare(spec)
     all_batches = batches_of(spec)
     store = SweepStore(out, spec.name, spec.digest(), spec.batch_size,
-                       sum(len(t) for _, t in all_batches)).open()
+                       sum(len(t) for _, t in all_batches), scene_hashes(spec)).open()
     done = store.done()
     todo = [(bid, tests) for bid, tests in all_batches if bid not in done]
     if max_batches is not None:
@@ -112,8 +167,6 @@ def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = 
             _run_dask(spec, todo, scheduler, rec_dir, rows_fn, finished)
         else:
             n = workers if workers is not None else (os.cpu_count() or 1)
-            if n < 1:
-                raise ConfigError("workers", n, "must be >= 1")
             if n == 1 or len(todo) == 1:
                 for bid, tests in todo:
                     finished(bid, rows_fn(spec, tests, rec_dir))
@@ -145,14 +198,26 @@ def _run_pool(spec, todo, n, rec_dir, rows_fn, finished) -> None:
             pending[pool.submit(rows_fn, spec, tests, rec_dir)] = bid
             if len(pending) >= 2 * n:
                 break
+        error: BaseException | None = None
         while pending:
             ready, _ = wait(pending, return_when=FIRST_COMPLETED)
             for fut in ready:
                 bid = pending.pop(fut)
+                if fut.cancelled():
+                    continue
+                if fut.exception() is not None:
+                    if error is None:
+                        # stop submitting; the batches under way still finish and are kept
+                        error = fut.exception()
+                        for other in pending:
+                            other.cancel()
+                    continue
                 finished(bid, fut.result())
-                nxt = next(it, None)
+                nxt = next(it, None) if error is None else None
                 if nxt is not None:
                     pending[pool.submit(rows_fn, spec, nxt[1], rec_dir)] = nxt[0]
+        if error is not None:
+            raise error
 
 
 def _worker_init() -> None:
@@ -175,14 +240,24 @@ def _run_dask(spec, todo, scheduler, rec_dir, rows_fn, finished) -> None:
         raise ConfigError("scheduler", scheduler, "needs dask[distributed] installed") from exc
     try:
         client = Client(scheduler, timeout="10s")
-    except (OSError, TimeoutError) as exc:
-        raise ConfigError("scheduler", scheduler, f"cannot connect: {exc}") from exc
+    except (OSError, TimeoutError, ValueError, TypeError) as exc:
+        # a malformed address is a ValueError/TypeError of the comm layer
+        raise ConfigError("scheduler", scheduler, f"cannot connect: {exc}") from None
     try:
         futs = {client.submit(rows_fn, spec, tests, rec_dir, key=f"rths3d-{spec.name}-"
                               f"{spec.digest()}-{bid}", pure=False): bid
                 for bid, tests in todo}
-        for fut in as_completed(list(futs)):
-            finished(futs[fut], fut.result())
+        written: set[str] = set()
+        try:
+            for fut in as_completed(list(futs)):
+                finished(futs[fut], fut.result())
+                written.add(futs[fut])
+        except BaseException:
+            # keep every batch the cluster has already finished, then report the failure
+            for fut, bid in futs.items():
+                if fut.status == "finished" and bid not in written:
+                    finished(bid, fut.result())
+            raise
     finally:
         client.close()
 

@@ -28,12 +28,17 @@ THREADS_ENV = "RTHS3D_THREADS"
 worker processes set it to 1."""
 
 
-def _overrides(spec: SweepSpec, test: dict[str, Any]) -> dict[str, Any]:
+def _overrides(spec: SweepSpec, test: dict[str, Any], base=None) -> dict[str, Any]:
     ov = dict(test["params"])
     if spec.duration is not None:
         ov.setdefault("duration", spec.duration)
     if test.get("transfer"):
         ov["transfer.kind"] = test["transfer"]
+    noise = ov.get("sensor.noise_std", base.sensor.noise_std if base is not None else 0.0)
+    if noise:
+        # the test's own seed, so that its noise does not depend on its batch-mates; only for
+        # noisy tests, since the loop steps tests of different sensor seeds apart
+        ov.setdefault("sensor.seed", int(test["seed"]))
     return ov
 
 
@@ -96,10 +101,16 @@ def run_rows(spec: SweepSpec, tests: list[dict[str, Any]], records_dir: str | No
     """Run ``tests`` (one batch of ``spec``) and return one row per test, in order."""
     import numpy as np
 
+    # NaN/inf of unstable tests are detected and reported, not raised
+    with np.errstate(all="ignore"):
+        return _run_rows(spec, tests, records_dir)
+
+
+def _run_rows(spec: SweepSpec, tests: list[dict[str, Any]], records_dir: str | None
+              ) -> list[dict[str, Any]]:
     from ..loop import run_batch
     from ..scene import load_scene
 
-    np.seterr(all="ignore")  # NaN/inf of unstable tests are detected and reported, not raised
     # every row carries all parameter columns of the families in this batch (NaN where unset)
     keys = {k for t in tests for k in t["params"]}
     for fam in spec.families:
@@ -112,8 +123,8 @@ def run_rows(spec: SweepSpec, tests: list[dict[str, Any]], records_dir: str | No
         by_family.setdefault(t["family"], []).append(i)
     for fam_name, idx in by_family.items():
         fam = next(f for f in spec.families if f.name == fam_name)
-        base = load_scene(spec.scene_path(fam))
-        sets = [_overrides(spec, tests[i]) for i in idx]
+        base = spec.scenes.get(fam.name) or load_scene(spec.scene_path(fam))
+        sets = [_overrides(spec, tests[i], base) for i in idx]
         nthread = int(os.environ.get(THREADS_ENV) or 0)
         try:
             results = run_batch(base, sets, nthread=nthread)

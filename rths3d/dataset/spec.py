@@ -47,9 +47,16 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError
-from ..scene import ACTUATOR_PER_TEST, PER_TEST_COMPENSATION, STEWART_PER_TEST_SERVO
+from ..scene import (
+    ACTUATOR_PER_TEST,
+    PER_TEST_COMPENSATION,
+    STEWART_PER_TEST_SERVO,
+    TRANSFER_KINDS,
+)
 
-TRANSFERS = ("ideal", "lti", "stewart")
+TRANSFERS = TRANSFER_KINDS
+SWEEP_KEYS = ("name", "duration", "seed", "batch_size", "keep_records")
+FAMILY_KEYS = ("name", "scene", "transfer", "subset", "fixed", "grid", "sample")
 
 
 @dataclass(frozen=True)
@@ -80,6 +87,9 @@ class SweepSpec:
     keep_records: bool = False
     base_dir: str = "."
     """Folder the scene paths are relative to (the spec file's folder)."""
+    scenes: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
+    """Base scenes by family name, loaded by the submitting process
+    (:func:`~rths3d.dataset.execute.prepare`); empty: loaded from their files where needed."""
 
     def tests(self) -> list[dict[str, Any]]:
         """All tests of the sweep in a deterministic order (see :func:`enumerate_tests`)."""
@@ -151,6 +161,9 @@ def enumerate_tests(spec: SweepSpec) -> list[dict[str, Any]]:
                     points.append(p)
             else:
                 points.append(c)
+        if fam.subset is not None and fam.subset > len(points):
+            raise ConfigError(f"family {fam.name!r}.subset", fam.subset,
+                              f"more than the family's {len(points)} tests")
         if fam.subset is not None and fam.subset < len(points):
             pick = np.random.default_rng(_stable_seed(spec.seed, fam.name, "subset")).choice(
                 len(points), size=fam.subset, replace=False)
@@ -194,6 +207,10 @@ def batch_group_key(test: Mapping[str, Any], transfer_kind: str | None = None) -
     params = test["params"]
     kind = test.get("transfer") or transfer_kind
     if kind == "stewart":
+        tc = params.get("transfer.timeconst", 0.0)
+        if isinstance(tc, bool) or not isinstance(tc, int | float):
+            raise ConfigError(f"family {test['family']!r} transfer.timeconst", tc,
+                              "must be a number (s)")
         params = {k: (float(v) > 0 if k == "transfer.timeconst" else v)
                   for k, v in params.items() if k not in _STEWART_PER_TEST}
     elif kind in ("lti", "delay"):
@@ -213,21 +230,47 @@ def _require(d: Mapping[str, Any], key: str, where: str, kind: type | tuple) -> 
     return v
 
 
+def _table(d: Mapping[str, Any], key: str, where: str) -> dict[str, Any]:
+    v = d.get(key, {})
+    if not isinstance(v, Mapping):
+        raise ConfigError(f"{where}.{key}", v, "must be a table")
+    return dict(v)
+
+
+def _known_keys(d: Mapping[str, Any], where: str, known: tuple[str, ...]) -> None:
+    for k in d:
+        if k not in known:
+            raise ConfigError(f"{where}.{k}", d[k], f"unknown key (known: {', '.join(known)})")
+
+
+def _is_int(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
 def _parse_family(d: Mapping[str, Any], where: str) -> Family:
+    if not isinstance(d, Mapping):
+        raise ConfigError(where, d, "must be a table ([[family]])")
+    _known_keys(d, where, FAMILY_KEYS)
     name = _require(d, "name", where, str)
     scene = _require(d, "scene", where, str)
     transfer = d.get("transfer")
     if transfer is not None and transfer not in TRANSFERS:
         raise ConfigError(f"{where}.transfer", transfer, f"one of {', '.join(TRANSFERS)}")
     grid: dict[str, tuple[Any, ...]] = {}
-    for k, v in dict(d.get("grid", {})).items():
+    for k, v in _table(d, "grid", where).items():
         vals = v if isinstance(v, list) else [v]
         if not vals:
             raise ConfigError(f"{where}.grid.{k}", v, "needs at least one value")
         grid[str(k)] = tuple(vals)
     sample: dict[str, tuple[str, Any, Any]] = {}
-    sraw = dict(d.get("sample", {}))
-    n_sample = int(sraw.pop("n", 0)) if sraw else 0
+    sraw = _table(d, "sample", where)
+    n_sample = sraw.pop("n", 0)
+    if not _is_int(n_sample):
+        raise ConfigError(f"{where}.sample.n", n_sample, "must be an integer")
     for k, v in sraw.items():
         if not isinstance(v, dict) or len(v) != 1:
             raise ConfigError(f"{where}.sample.{k}", v,
@@ -242,6 +285,8 @@ def _parse_family(d: Mapping[str, Any], where: str) -> Family:
         if kind not in ("uniform", "loguniform") or not isinstance(rng, list) or len(rng) != 2:
             raise ConfigError(f"{where}.sample.{k}", v,
                               "write {uniform = [lo, hi]} or {loguniform = [lo, hi]}")
+        if not all(_is_number(x) for x in rng):
+            raise ConfigError(f"{where}.sample.{k}", rng, "lo and hi must be finite numbers")
         lo, hi = float(rng[0]), float(rng[1])
         if not hi >= lo or (kind == "loguniform" and lo <= 0):
             raise ConfigError(f"{where}.sample.{k}", rng,
@@ -250,25 +295,30 @@ def _parse_family(d: Mapping[str, Any], where: str) -> Family:
     if sample and n_sample < 1:
         raise ConfigError(f"{where}.sample.n", n_sample, "must be >= 1 when ranges are given")
     subset = d.get("subset")
-    if subset is not None and (not isinstance(subset, int) or subset < 1):
+    if subset is not None and (not _is_int(subset) or subset < 1):
         raise ConfigError(f"{where}.subset", subset, "must be an integer >= 1")
-    fixed = dict(d.get("fixed", {}))
+    fixed = _table(d, "fixed", where)
     return Family(name, scene, transfer, grid, sample, n_sample, subset, fixed)
 
 
 def parse_spec(data: Mapping[str, Any], base_dir: str | os.PathLike = ".") -> SweepSpec:
     """Build a :class:`SweepSpec` from parsed TOML; ConfigError names any bad field."""
-    sw = dict(data.get("sweep", {}))
+    _known_keys(data, "spec", ("sweep", "family"))
+    sw = _table(data, "sweep", "spec")
+    _known_keys(sw, "sweep", SWEEP_KEYS)
     name = _require(sw, "name", "sweep", str)
     duration = sw.get("duration")
-    if duration is not None and (not isinstance(duration, int | float) or duration <= 0):
+    if duration is not None and (not _is_number(duration) or duration <= 0):
         raise ConfigError("sweep.duration", duration, "must be > 0 s")
     batch = sw.get("batch_size", 16)
-    if not isinstance(batch, int) or batch < 1:
+    if not _is_int(batch) or batch < 1:
         raise ConfigError("sweep.batch_size", batch, "must be an integer >= 1")
     seed = sw.get("seed", 0)
-    if not isinstance(seed, int):
+    if not _is_int(seed):
         raise ConfigError("sweep.seed", seed, "must be an integer")
+    keep = sw.get("keep_records", False)
+    if not isinstance(keep, bool):
+        raise ConfigError("sweep.keep_records", keep, "must be true or false")
     fams_raw = data.get("family", [])
     if not isinstance(fams_raw, list) or not fams_raw:
         raise ConfigError("family", None, "at least one [[family]] table is required")
@@ -278,7 +328,7 @@ def parse_spec(data: Mapping[str, Any], base_dir: str | os.PathLike = ".") -> Sw
     if dup:
         raise ConfigError("family.name", sorted(dup)[0], "family names must be unique")
     return SweepSpec(name, fams, None if duration is None else float(duration), seed, batch,
-                     bool(sw.get("keep_records", False)), str(base_dir))
+                     keep, str(base_dir))
 
 
 def load_spec(path: str | os.PathLike) -> SweepSpec:

@@ -2,7 +2,8 @@
 
 Layout under the output folder ``DIR``::
 
-    DIR/manifest.json          spec name, digest, batch size, batching scheme, number of tests
+    DIR/manifest.json          spec name, digest, batch size, batching scheme, number of
+                               tests, hash of each family's scene file
     DIR/parts/<batch>.parquet  rows of one finished batch (written atomically)
     DIR/records/<test>.parquet per-test records (optional, ``keep_records``)
     DIR/<sweep name>.parquet   the merged table (written atomically when all parts exist)
@@ -16,7 +17,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -25,12 +26,25 @@ from ..errors import ConfigError
 TABLE_META_KEY = b"rths3d_sweep"
 
 
+def _text_if_mixed(frame):
+    """``frame`` with every column that mixes text and other values (a parameter that is a
+    number in one family and text in another) as text; missing values stay missing."""
+    mixed = [c for c in frame.columns if frame[c].dtype.kind == "O"
+             and len({isinstance(v, str) for v in frame[c].dropna()}) > 1]
+    if not mixed:
+        return frame
+    frame = frame.copy()
+    for c in mixed:
+        frame[c] = frame[c].map(lambda v: v if v is None or v != v else str(v))
+    return frame
+
+
 def _atomic_write_table(frame, path: Path, meta: dict[str, Any] | None = None) -> None:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     path.parent.mkdir(parents=True, exist_ok=True)
-    table = pa.Table.from_pandas(frame, preserve_index=False)
+    table = pa.Table.from_pandas(_text_if_mixed(frame), preserve_index=False)
     if meta is not None:
         md = dict(table.schema.metadata or {})
         md[TABLE_META_KEY] = json.dumps(meta, default=str).encode()
@@ -49,31 +63,53 @@ class SweepStore:
     """The output folder of one sweep (see module docstring)."""
 
     def __init__(self, root: str | os.PathLike, name: str, digest: str, batch_size: int,
-                 n_tests: int):
+                 n_tests: int, scenes: Mapping[str, str] | None = None):
         self.root = Path(root)
         self.name = name
         self.digest = digest
         self.batch_size = batch_size
         self.n_tests = n_tests
+        self.scenes = dict(scenes or {})
+        """Hash of each family's scene file, by family name."""
         self.parts = self.root / "parts"
         self.records = self.root / "records"
         self.table_path = self.root / f"{name}.parquet"
 
     def open(self) -> SweepStore:
         """Create the folder or check that an existing one belongs to the same spec."""
-        self.parts.mkdir(parents=True, exist_ok=True)
+        try:
+            self.parts.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ConfigError("out", str(self.root),
+                              f"cannot create the output folder: {exc.strerror}") from None
         man = self.root / "manifest.json"
         want = {"name": self.name, "digest": self.digest, "batch_size": self.batch_size,
-                "batching": BATCHING, "n_tests": self.n_tests}
+                "batching": BATCHING, "n_tests": self.n_tests, "scenes": self.scenes}
         if man.exists():
-            have = json.loads(man.read_text())
+            try:
+                have = json.loads(man.read_text())
+            except (OSError, UnicodeDecodeError, ValueError) as exc:
+                raise ConfigError("out", str(man), f"unreadable manifest ({exc}); use a new "
+                                  "--out folder") from None
+            if not isinstance(have, dict):
+                raise ConfigError("out", str(man), "not a sweep manifest; use a new --out "
+                                  "folder")
             for key in ("digest", "batch_size", "batching"):
                 if have.get(key) != want[key]:
-                    what = ("folder was cut into batches by another rths3d version"
-                            if key == "batching" else "folder holds another sweep")
+                    what = {"batching": "folder was cut into batches by another rths3d version",
+                            "batch_size": "batch_size differs"}.get(key,
+                                                                    "folder holds another sweep")
                     raise ConfigError(
                         f"out ({self.root}) {key}", have.get(key),
                         f"{what} (this one: {want[key]}); use a new --out folder")
+            # manifests written before scene hashes were kept have none: nothing to compare
+            old = have.get("scenes")
+            for fam, h in (old.items() if isinstance(old, dict) else ()):
+                if fam in self.scenes and self.scenes[fam] != h:
+                    raise ConfigError(
+                        f"out ({self.root}) family {fam!r} scene", h,
+                        "the scene file changed since this folder was started (its results "
+                        "would mix both versions); use a new --out folder")
         else:
             tmp = man.with_name(f".{man.name}.tmp{os.getpid()}")
             tmp.write_text(json.dumps(want, indent=1))
@@ -107,6 +143,7 @@ class SweepStore:
             pos = {tid: i for i, tid in enumerate(order)}
             frame = frame.iloc[frame["test_id"].map(pos).argsort(kind="stable")]
             frame = frame.reset_index(drop=True)
+        frame = _text_if_mixed(frame)  # the returned table equals the written one
         _atomic_write_table(frame, self.table_path, meta)
         return frame
 
