@@ -5,7 +5,10 @@ measured force F'_m(t_n) held over the step and outputs the command z_{n+1} = Γ
 the transfer system moves the experimental part towards it during the next ΔT and returns
 the achieved z'_{n+1} and the measured force F'_m(t_{n+1}); safety limits are checked. With
 the ideal transfer system the only error left is this partitioned exchange (force held
-over a step), which converges to the reference at first order in ΔT.
+over a step), which converges to the reference at first order in ΔT with the ``exact``
+integrator and at about second order with ``central_difference``. The partitioned exchange is
+only conditionally stable (a part stiff against the numerical mass diverges with either
+integrator, and the safety limits stop it).
 
 Safety limits (stroke, command velocity, FTS range, divergence) stop a test as a real bench
 would: the test's record ends at the last safe sample, ``status = "stopped"`` and ``reason``
@@ -219,7 +222,10 @@ def _columns(dofs: Sequence[str], n: int, stewart: bool) -> list[str]:
 # ---------------------------------------------------------------------------- the loop
 def _run_group(scenes: list[Scene], *, reference: bool | str, nthread: int,
                control: LoopControl | None, buffers_out: list | None,
-               progress: bool, specimen: str, numerical=None) -> list[RunResult]:
+               progress: bool, specimen: str, numerical=None,
+               test_ids: Sequence[int] | None = None) -> list[RunResult]:
+    """Step K compatible tests together. ``test_ids``: the tests' indices in the caller's
+    list (``run_batch``'s parameter sets), named in stop reasons (default 0…K−1)."""
     from .transfer import build_transfer
 
     base = scenes[0]
@@ -285,7 +291,7 @@ def _run_group(scenes: list[Scene], *, reference: bool | str, nthread: int,
             reasons[0] = halt_info["reason"]
         return _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons,
                        active, steps_done, wall, reference, stewart, specimen, nthread, progress,
-                       numerical)
+                       numerical, test_ids)
     t0 = time.perf_counter()
     pbar = None
     if progress:
@@ -330,6 +336,9 @@ def _run_group(scenes: list[Scene], *, reference: bool | str, nthread: int,
     g_base = np.zeros((K, nd))
     g_cnt = np.zeros((K, nd), dtype=int)
     f_abs = np.zeros((K, nd))  # |F'_m| of the step, for the FTS range and the growth watch
+    az = np.zeros((K, nd))  # |z|, |ż|, |x| of the step (no allocation per step)
+    azd = np.zeros((K, nd))
+    ax = np.zeros((K, num.n))
     zlim_min = float(lim_z.min())
     vlim_min = float(lim_v.min())
     flim_min = float(lim_f.min())
@@ -352,12 +361,14 @@ def _run_group(scenes: list[Scene], *, reference: bool | str, nthread: int,
         num.step(n, f)
         z = num.z
         zd = num.zdot
-        az = np.abs(z)
+        np.abs(z, out=az)
+        np.abs(zd, out=azd)
+        np.abs(num.x, out=ax)
         # cheap pre-checks (NaN fails `<=`); the per-test search runs only when one trips
-        if (not (az.max() <= zlim_min) or not (np.abs(zd).max() <= vlim_min)
-                or not (np.abs(num.x).max() <= lim_x)) and \
-                ((az > lim_z).any() or (np.abs(zd) > lim_v).any()
-                 or not (np.abs(num.x) <= lim_x).all()):
+        if (not (az.max() <= zlim_min) or not (azd.max() <= vlim_min)
+                or not (ax.max() <= lim_x)) and \
+                ((az > lim_z).any() or (azd > lim_v).any()
+                 or not (ax <= lim_x).all()):
             _check_command(num, z, zd, az, active, base, is_rot, lim_z, lim_v, lim_x, dt, n,
                            halt)
             if not active.any():
@@ -383,14 +394,15 @@ def _run_group(scenes: list[Scene], *, reference: bool | str, nthread: int,
             h_pq[n + 1] = transfer.plate_qpos
         np.abs(f, out=f_abs)
         if not (f_abs.max() <= flim_min):
-            # only the active tests over the range (a stopped test may keep diverging)
-            for k in np.flatnonzero(active & (f_abs > lim_f).any(axis=1)):
-                for j, d in enumerate(base.dofs):
-                    if abs(f[k, j]) > lim_f[j]:
-                        what = "torque" if is_rot[j] else "force"
-                        halt(k, SafetyStop(f"FTS range: measured {what} {d}", f[k, j],
-                                           lim_f[j], (n + 1) * dt, k,
-                                           "N·m" if is_rot[j] else "N"), n + 1)
+            # only the active tests over the range (a stopped test may keep diverging);
+            # NaN fails `<=`, so a non-finite force counts as out of range
+            for k in np.flatnonzero(active & ~(f_abs <= lim_f).all(axis=1)):
+                for j in range(nd):
+                    if not f_abs[k, j] <= lim_f[j]:
+                        v = float(f[k, j])
+                        # a non-finite sample is not kept (the record stays loadable)
+                        halt(k, _fts_stop(base, j, v, (n + 1) * dt, int(k)),
+                             n + 1 if math.isfinite(v) else n)
                         break
             if not active.any():
                 break
@@ -431,7 +443,22 @@ def _run_group(scenes: list[Scene], *, reference: bool | str, nthread: int,
     if pbar is not None:
         pbar.close()
     return _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, active,
-                   n + 1, wall, reference, stewart, specimen, nthread, progress, numerical)
+                   n + 1, wall, reference, stewart, specimen, nthread, progress, numerical,
+                   test_ids)
+
+
+def _fts_stop(base: Scene, j: int, value: float, t: float, k: int) -> SafetyStop:
+    """The stop of a measured force/torque out of the FTS range, or not finite."""
+    d = base.dofs[j]
+    rot = d.startswith("r")
+    what = "torque" if rot else "force"
+    unit = "N·m" if rot else "N"
+    stop = SafetyStop(f"FTS range: measured {what} {d}", value,
+                      base.safety.torque if rot else base.safety.force, t, k, unit)
+    if not math.isfinite(value):  # NaN exceeds no limit: say what it is
+        stop.args = (f"stopped at t = {t:.3f} s: FTS range: measured {what} {d} = {value} "
+                     f"is not finite" + (f" (test {k})" if k else ""),)
+    return stop
 
 
 def _growth_stop(base: Scene, j: int, ratio: float, t: float, k: int) -> SafetyStop:
@@ -521,10 +548,9 @@ def _run_kernel(kernel, num, transfer, base: Scene, data, buffers, control, ever
             stop = _growth_stop(base, j, val, n_done * dt, 0)
             row = n_done
         elif code == "f":
-            what = "torque" if rot else "force"
-            stop = SafetyStop(f"FTS range: measured {what} {d}", val,
-                              saf.torque if rot else saf.force, t, 0, "N·m" if rot else "N")
-            row = n_done
+            stop = _fts_stop(base, j, val, t, 0)
+            # a non-finite sample is not kept (the record stays loadable), as batched
+            row = n_done if math.isfinite(val) else n_done - 1
         else:
             halt_info.update(row=n_done, reason=f"stopped by the user at t = {n_done * dt:.3f} s")
             return n_done, wall
@@ -534,7 +560,7 @@ def _run_kernel(kernel, num, transfer, base: Scene, data, buffers, control, ever
 
 def _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, active,
             steps_done, wall, reference, stewart, specimen, nthread,
-            progress=False, numerical=None) -> list[RunResult]:
+            progress=False, numerical=None, test_ids=None) -> list[RunResult]:
     base = scenes[0]
     K = len(scenes)
     dt = base.dt
@@ -546,21 +572,26 @@ def _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, a
         from .reference import reference_solution
 
         # the reference uses the same model of the part as the test: on the platform the
-        # MuJoCo part, on the fast path the numpy one (documented in docs/loop.md)
+        # MuJoCo part, on the fast path the numpy one (documented in docs/loop.md); when
+        # every test stopped, only over the rows recorded (the reference is causal: the same
+        # samples as over the whole duration, without the wait)
+        rows = N + 1 if active.any() else int(stop_row.max()) + 1
+        rscenes = scenes if rows == N + 1 else \
+            [replace(s, duration=(rows - 1) * dt) for s in scenes]
         rspec = "mujoco" if (stewart or specimen == "mujoco") else "auto"
-        ref = reference_solution(scenes, nthread=nthread, specimen=rspec, progress=progress,
+        ref = reference_solution(rscenes, nthread=nthread, specimen=rspec, progress=progress,
                                  numerical=numerical)
         s_zr = slice(ci[f"z_ref.{base.dofs[0]}"], ci[f"z_ref.{base.dofs[0]}"] + nd)
         s_xr = slice(ci["x_ref.0"], ci["x_ref.0"] + num.n)
-        data[:, :, s_zr] = ref["z_ref"].transpose(1, 0, 2)
-        data[:, :, s_xr] = ref["x_ref"].transpose(1, 0, 2)
+        data[:rows, :, s_zr] = ref["z_ref"].transpose(1, 0, 2)
+        data[:rows, :, s_xr] = ref["x_ref"].transpose(1, 0, 2)
     results = []
     for k in range(K):
         b = buffers[k]
         b.n = int(stop_row[k]) + 1
         if not active[k]:
             b.meta["status"] = "stopped"
-            b.meta["reason"] = reasons[k]
+            b.meta["reason"] = _renumber(reasons[k], k, k if test_ids is None else test_ids[k])
         b.meta["rtf"] = rtf
         # the record's columns are views of the loop's array (no copy of K × N × columns)
         d = b.data[: b.n]
@@ -574,6 +605,15 @@ def _finish(scenes, num, data, buffers, ci, cols, s_zc, nd, stop_row, reasons, a
         results.append(RunResult(rec, b.meta["status"], b.meta["reason"], rtf, wall,
                                  b.meta["params"]))
     return results
+
+
+def _renumber(reason: str, k: int, test: int) -> str:
+    """``reason`` naming test ``test`` instead of the group-local index ``k`` (SafetyStop
+    appends " (test k)" for k > 0)."""
+    local = f" (test {k})"
+    if k and reason.endswith(local):
+        reason = reason[: -len(local)]
+    return reason + (f" (test {test})" if test else "")
 
 
 def run(scene: Scene, transfer: str | None = None, *, reference: bool = True,
@@ -658,7 +698,7 @@ def run_batch(scene: Scene, param_sets: Sequence[Mapping[str, Any]], transfer: s
             res = _run_group([scenes[i] for i in part],
                              reference="defer" if reference else False, nthread=nthread,
                              control=None, buffers_out=None, progress=progress,
-                             specimen=specimen)
+                             specimen=specimen, test_ids=part)
             for i, r in zip(part, res, strict=True):
                 results[i] = r
     if reference:

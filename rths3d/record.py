@@ -59,7 +59,8 @@ WRENCH_COMPONENTS: tuple[str, ...] = ("fx", "fy", "fz", "tx", "ty", "tz")
 
 _META_KEY = b"rths3d"
 MIN_SAMPLES = 8
-"""Shortest record accepted (samples)."""
+"""Shortest record accepted (samples), except a stopped test's (meta ``status`` other than
+``"ok"``), which may end at any sample: a saved partial record can always be read back."""
 
 
 def _json_default(obj: Any) -> Any:
@@ -203,7 +204,8 @@ class Record:
         """Read a Parquet or CSV record and check it against the schema.
 
         Raises :class:`RecordError` naming the file, column and row for a missing ``t``,
-        NaNs, non-increasing time or a record shorter than ``MIN_SAMPLES``. A non-uniform
+        NaNs, non-increasing time or a record shorter than ``MIN_SAMPLES`` (unless its
+        metadata says it stopped: ``status`` other than ``"ok"``). A non-uniform
         time base is resampled (linear interpolation) with a warning unless
         ``resample=False``, in which case it is an error.
         """
@@ -258,15 +260,17 @@ class Record:
                                   f"value(s), first at row {int(bad[0])}")
             cols[name] = arr
         t = cols.pop("t")
-        if t.size < MIN_SAMPLES:
+        # a test stopped early (its partial record saved) may be shorter
+        stopped = isinstance(meta, Mapping) and meta.get("status", "ok") != "ok"
+        if t.size < (1 if stopped else MIN_SAMPLES):
             raise RecordError(f"{source}: {t.size} samples is too short "
                               f"(at least {MIN_SAMPLES} needed)")
         steps = np.diff(t)
         if np.any(steps <= 0):
             row = int(np.flatnonzero(steps <= 0)[0]) + 1
             raise RecordError(f"{source}: column 't' is not strictly increasing at row {row}")
-        dt = float(np.median(steps))
-        if np.max(np.abs(steps - dt)) > 1e-6 * max(dt, 1e-12) + 1e-9:
+        dt = float(np.median(steps)) if steps.size else 0.0
+        if steps.size and np.max(np.abs(steps - dt)) > 1e-6 * max(dt, 1e-12) + 1e-9:
             if not resample:
                 raise RecordError(f"{source}: non-uniform sampling (steps from "
                                   f"{steps.min():.6g} s to {steps.max():.6g} s)")

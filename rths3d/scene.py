@@ -49,12 +49,12 @@ Matrix = tuple[tuple[float, ...], ...]
 
 
 def _num(field_name: str, value: Any, *, lo: float | None = None, lo_open: bool = False,
-         hi: float | None = None, unit: str = "", allow_inf: bool = False) -> float:
-    """Check that ``value`` is a real number in the given range; return it as float."""
+         hi: float | None = None, unit: str = "") -> float:
+    """Check that ``value`` is a finite real number in the given range; return it as float."""
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise ConfigError(field_name, value, f"must be a number{(' in ' + unit) if unit else ''}")
     v = float(value)
-    if math.isnan(v) or (math.isinf(v) and not allow_inf):
+    if not math.isfinite(v):
         raise ConfigError(field_name, value, "must be finite")
     u = f" {unit}" if unit else ""
     if lo is not None and (v <= lo if lo_open else v < lo):
@@ -94,8 +94,9 @@ class NumericalConfig:
     ``M`` (kg or kg·m²), ``C`` (N·s/m), ``K`` (N/m) are n×n; ``gamma`` (Γ) is n × n_if and
     maps the interface DOFs (``Scene.dofs``) to numerical DOFs: the commanded interface
     displacement is ``z = Γᵀ x``. ``integrator`` is ``exact`` (exact discretisation of the
-    state space with the force held over a step, unconditionally stable) or
-    ``central_difference`` (explicit, stable for ω_max ΔT < 2).
+    state space with the force held over a step, unconditionally stable on its own) or
+    ``central_difference`` (explicit, stable for ω_max ΔT < 2, checked with the part's
+    spring added). The coupled loop (force held over a step) is only conditionally stable.
     """
 
     M: Matrix
@@ -383,7 +384,7 @@ def _build(cls: type, name: str, sec: Mapping[str, Any], checks: Mapping[str, di
             if isinstance(v, bool) or not isinstance(v, int):
                 raise ConfigError(fname, v, "must be an integer")
         elif isinstance(d, float):
-            v = _num(fname, v, allow_inf=True, **checks.get(f.name, {}))
+            v = _num(fname, v, **checks.get(f.name, {}))
         elif isinstance(d, tuple):
             if not isinstance(v, list | tuple):
                 raise ConfigError(fname, v, "must be a list of numbers")
@@ -409,6 +410,10 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
     dofs = tuple(d for d in DOFS if d in dofs)
     dt = _num("dt", raw.get("dt", 1e-3), lo=1e-6, hi=0.01, unit="s")
     duration = _num("duration", raw.get("duration", 10.0), lo=10 * dt, hi=3600.0, unit="s")
+    steps = duration / dt
+    if abs(steps - round(steps)) > 1e-9 * steps:
+        raise ConfigError("duration", raw.get("duration", 10.0),
+                          f"must be a multiple of dt = {dt:g} s")
     num = _numerical(raw, len(dofs), dofs)
     exp_sec = _section(raw, "experiment", ExperimentConfig, required=True)
     if "kind" not in exp_sec:
@@ -451,6 +456,8 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
         "kp": pos, "kv": nonneg, "timeconst": nonneg})
     _choice("transfer.kind", tr.kind, TRANSFER_KINDS)
     _choice("transfer.compensation", tr.compensation, COMPENSATIONS)
+    if tr.substeps < 1 or tr.substeps > 100:
+        raise ConfigError("transfer.substeps", tr.substeps, "must be in 1…100")
     if tr.poly_order < 1 or tr.poly_order > 4:
         raise ConfigError("transfer.poly_order", tr.poly_order, "must be in 1…4")
     if bool(tr.num) != bool(tr.den):
@@ -462,6 +469,8 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
     sen = _build(SensorConfig, "sensor", _section(raw, "sensor", SensorConfig), {
         "time_constant": nonneg, "noise_std": nonneg, "delay": {**nonneg, "hi": 0.5}})
     _choice("sensor.kind", sen.kind, SENSOR_KINDS)
+    if sen.seed < 0:
+        raise ConfigError("sensor.seed", sen.seed, "must be >= 0")
     if sen.kind == "first_order" and sen.time_constant <= 0:
         raise ConfigError("sensor.time_constant", sen.time_constant, "must be > 0 s for "
                           "a first-order sensor")
@@ -472,11 +481,34 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
     if saf.growth_windows < 0:
         raise ConfigError("safety.growth_windows", saf.growth_windows, "must be >= 0 (0: off)")
     _check_reach(saf, exc, exp)
+    if num.integrator == "central_difference":
+        _check_coupled_stability(num, exp, dofs, dt)
     sname = raw.get("name", name)
     if not isinstance(sname, str):
         raise ConfigError("name", sname, "must be a string")
     return Scene(name=sname, dofs=dofs, numerical=num, experiment=exp, excitation=exc,
                  transfer=tr, sensor=sen, safety=saf, dt=dt, duration=duration, source=source)
+
+
+def _check_coupled_stability(num: NumericalConfig, exp: ExperimentConfig,
+                             dofs: tuple[str, ...], dt: float) -> None:
+    """Refuse ``central_difference`` when the coupled test's fastest mode has ω·ΔT ≥ 2.
+
+    The part's spring k_EXP acts on the numerical DOFs through Γ; its mass sits behind that
+    spring and does not slow the fastest mode (at ω ΔT ≈ 2 it barely moves), so the explicit
+    integrator sees ω_max of (K + Γ k_EXP Γᵀ) v = ω² M v.
+    """
+    from .experiment.mjcf import interface_matrices
+    from .numerical.modal import coupled_fastest_eigenfrequency
+
+    k_exp = np.array(interface_matrices(exp, dofs)[0])
+    w = coupled_fastest_eigenfrequency(np.array(num.M), np.array(num.K), np.array(num.gamma),
+                                       np.zeros_like(k_exp), k_exp)
+    if w * dt >= 2.0:
+        raise ConfigError("numerical.integrator", num.integrator,
+                          f"unstable: coupled ω_max·ΔT = {w * dt:.3g} must be < 2 "
+                          f"(ω_max = {w:.4g} rad/s of K + Γ k_EXP Γᵀ on M, ΔT = {dt:g} s); "
+                          "use 'exact'")
 
 
 def _check_reach(saf: SafetyLimits, exc: ExcitationConfig, exp: ExperimentConfig) -> None:

@@ -440,3 +440,143 @@ def test_stopped_test_in_batch_leaves_the_others_unchanged():
         assert b.record.n == single.record.n
         np.testing.assert_allclose(b.record.columns["f_meas.z"],
                                    single.record.columns["f_meas.z"], atol=1e-12)
+
+
+def test_non_finite_force_stops_alike_in_kernel_and_batch(tmp_path):
+    """A NaN measured force stops the test at once on both paths with the same reason ('not
+    finite'), the NaN sample not kept, so the saved record loads."""
+    import warnings
+
+    from rths3d.loop import scene_with
+
+    # an absurdly stiff undamped part: its Euler substeps overflow, F = inf·… + 0·inf = NaN
+    sc = load_scene(SCENES / "paper_linear.toml", ["duration=0.5", "experiment.k=1e300",
+                                                   "experiment.d=0.0"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        one = run(sc, "ideal", reference=False, out=str(tmp_path / "k.parquet"))
+        batch = run_batch(sc, [{"experiment.k": 8650.0, "experiment.d": 5.0}, {}], "ideal",
+                          reference=False)
+    assert one.status == "stopped" and "FTS range: measured force z = nan is not finite" \
+        in one.reason
+    assert batch[1].reason == one.reason + " (test 1)"
+    assert batch[1].record.n == one.record.n
+    assert np.all(np.isfinite(batch[1].record.columns["f_meas.z"]))
+    assert batch[0].status == "ok"
+    assert Record.load(tmp_path / "k.parquet").meta["reason"] == one.reason
+    ok = run(scene_with(sc, {"experiment.k": 8650.0, "experiment.d": 5.0}), "ideal",
+             reference=False)
+    np.testing.assert_allclose(batch[0].record.columns["z_cmd.z"],
+                               ok.record.columns["z_cmd.z"], rtol=0, atol=1e-12)
+
+
+def test_batch_stop_reasons_name_the_parameter_set():
+    """Stop reasons of run_batch name the test's index in param_sets, whatever group or
+    chunk it was stepped in (kernel and batched paths)."""
+    sc = load_scene(SCENES / "paper_linear.toml", ["duration=0.5"])
+    sets = [{}, {"safety.force": 0.05}, {}, {"safety.force": 0.05, "numerical.k": 5e3},
+            {"safety.force": 0.04}]
+    res = run_batch(sc, sets, "ideal", reference=False, max_k=256)
+    assert [r.status for r in res] == ["ok", "stopped", "ok", "stopped", "stopped"]
+    for i in (1, 3, 4):
+        assert res[i].reason.endswith(f" exceeds the limit {sets[i]['safety.force']:g} N "
+                                      f"(test {i})"), res[i].reason
+    chunked = run_batch(sc, [{"safety.force": 0.05}] * 3, "ideal", reference=False, max_k=2)
+    assert [r.reason.rsplit(" (test ", 1)[-1] for r in chunked[1:]] == ["1)", "2)"]
+    assert "(test" not in chunked[0].reason
+
+
+def test_cli_ctrl_c_keeps_the_partial_record(tmp_path, capsys):
+    """Ctrl-C (SIGINT) during `rths3d run --out` stops the test and writes the partial
+    record, 'stopped by the user at t = …'; the SIGINT handler is restored afterwards."""
+    import json
+    import os
+    import signal
+
+    from rths3d.cli import main
+
+    before = signal.getsignal(signal.SIGINT)
+    out = tmp_path / "ctrlc.parquet"
+
+    def interrupt():
+        deadline = time.time() + 15.0
+        while time.time() < deadline and signal.getsignal(signal.SIGINT) is before:
+            time.sleep(0.02)
+        time.sleep(2.0)  # let the paced loop start and run a little
+        os.kill(os.getpid(), signal.SIGINT)
+
+    th = threading.Thread(target=interrupt, daemon=True)
+    th.start()
+    t0 = time.time()
+    with pytest.raises(SystemExit) as info:
+        main(["run", str(SCENES / "paper_linear.toml"), "--set", "duration=600",
+              "--realtime", "--json", "--out", str(out)])
+    th.join(timeout=5)
+    assert info.value.code == 0 and time.time() - t0 < 60
+    res = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert res["status"] == "stopped" and res["reason"].startswith("stopped by the user at t =")
+    rec = Record.load(out)
+    # how far the loop got depends on the machine (the SIGINT may even come during its set-up)
+    assert rec.meta["reason"] == res["reason"] and 2 <= rec.n < 60_000
+    assert "z_ref.z" in rec.columns  # the reference covers the rows recorded
+    assert signal.getsignal(signal.SIGINT) is before
+
+
+def test_stopped_test_reference_is_the_prefix_of_the_full_one():
+    """A stopped test's reference (computed over its rows only) equals the first rows of the
+    whole duration's reference bit for bit."""
+    sc = load_scene(SCENES / "paper_contact.toml", ["duration=3.0", "safety.force=3.0"])
+    r = run(sc, "lti")
+    assert r.status == "stopped" and r.record.n < sc.n_steps // 2
+    ref = reference_solution([sc])
+    n = r.record.n
+    np.testing.assert_array_equal(r.record.columns["z_ref.z"], ref["z_ref"][0, :n, 0])
+    np.testing.assert_array_equal(r.record.columns["x_ref.0"], ref["x_ref"][0, :n, 0])
+
+
+@pytest.mark.parametrize("text", ["t,value\n0,1\nabc,2\n", "t,value\n0,1\n0.1\n0.2,3,4,5\n",
+                                  "", "t,value\n0,1\n0.1,\n"])
+def test_malformed_excitation_csv_is_a_config_error(tmp_path, text):
+    """A malformed excitation CSV (text, ragged rows, empty, missing values) raises
+    ConfigError naming excitation.file, not a pandas/numpy error."""
+    from rths3d.errors import ConfigError
+
+    path = tmp_path / "load.csv"
+    path.write_text(text)
+    sc = load_scene(SCENES / "paper_linear.toml", ["duration=0.5", "excitation.signal='file'",
+                                                   f"excitation.file='{path}'"])
+    with pytest.raises(ConfigError) as err:
+        run(sc, "ideal", reference=False)
+    assert err.value.field == "excitation.file"
+
+
+def test_batched_step_parts_allocate_no_arrays():
+    """One step of the batched numerical substructure (shared and per-test matrices) and of
+    the numpy part allocates no array (< 4 kB traced; a (K, 2) array is 32 kB)."""
+    import tracemalloc
+
+    from rths3d.loop import build_numerical, scene_with
+    from rths3d.transfer import build_transfer
+
+    def peak(f):
+        for _ in range(3):
+            f()
+        tracemalloc.start()
+        try:
+            tracemalloc.reset_peak()
+            base = tracemalloc.get_traced_memory()[0]
+            for _ in range(10):
+                f()
+            return tracemalloc.get_traced_memory()[1] - base
+        finally:
+            tracemalloc.stop()
+
+    K = 2000
+    sc = load_scene(SCENES / "paper_contact.toml", ["duration=0.5", "experiment.d=1.0"])
+    f = np.full((K, 1), 0.1)
+    z0, z1 = np.full((K, 1), 4e-3), np.full((K, 1), 6e-3)  # in contact (h0 = 5 mm)
+    for scenes in ([sc] * K, [scene_with(sc, {"numerical.k": 5e3 + i}) for i in range(K)]):
+        num = build_numerical(scenes)
+        assert peak(lambda n=num: n.step(3, f)) < 4096
+    spec = build_transfer(sc, K).specimen
+    assert peak(lambda: spec.advance(z0, z1)) < 4096

@@ -117,3 +117,18 @@ def test_cli_reports_user_errors_without_traceback(tmp_path, capsys):
     err = capsys.readouterr().err
     assert info.value.code != 0
     assert "Traceback" not in err
+
+
+@pytest.mark.parametrize("suffix", [".parquet", ".csv"])
+@pytest.mark.parametrize("n", [1, 3])
+def test_short_stopped_record_loads(tmp_path, suffix, n):
+    """A record of a stopped test loads however short (≥ 1 sample); an 'ok' one needs 8."""
+    t = np.arange(n) * 1e-3
+    cols = {"z_cmd.z": 1e-3 * t, "z_meas.z": 1e-3 * t, "f_meas.z": 0.1 * t}
+    stopped = Record(t, cols, {"status": "stopped", "reason": "stopped at t = 0.003 s"})
+    back = Record.load(stopped.save(tmp_path / f"s{suffix}"))
+    assert back.n == n and back.meta["status"] == "stopped"
+    np.testing.assert_array_equal(back.columns["z_cmd.z"], cols["z_cmd.z"])
+    ok = Record(t, cols, {"status": "ok"})
+    with pytest.raises(RecordError, match="too short"):
+        Record.load(ok.save(tmp_path / f"o{suffix}"))

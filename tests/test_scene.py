@@ -70,6 +70,7 @@ def test_non_symmetric_matrix_rejected():
     (["--set", "numerical.m=-1"], "numerical.m"),
     (["--transfer", "magic"], "--transfer"),
     (["--set", "safety.stroke=0.3"], "safety.stroke"),
+    (["--out", "rec.txt"], "--out"),
 ])
 def test_cli_bad_scene_one_line_exit_2(args, word):
     """The CLI prints one line naming the field, exits with 2 and shows no traceback."""
@@ -87,3 +88,54 @@ def test_growth_limits_validated():
         load_scene(SCENES / "multidof.toml", ["safety.growth=1.0"])
     with pytest.raises(ConfigError, match=r"safety\.growth_windows"):
         load_scene(SCENES / "multidof.toml", ["safety.growth_windows=-1"])
+
+
+@pytest.mark.parametrize("override", ["safety.force=inf", "safety.velocity=inf",
+                                      "experiment.k=inf", "experiment.m=inf",
+                                      "excitation.amplitude=inf", "sensor.gain=inf",
+                                      "safety.torque=-inf"])
+def test_non_finite_values_refused(override):
+    """Infinite values are refused as ConfigError '<field>: inf (must be finite)'."""
+    field, _, value = override.partition("=")
+    with pytest.raises(ConfigError) as err:
+        load_scene(SCENES / "paper_linear.toml", ["duration=0.5", override])
+    assert err.value.field == field
+    assert str(err.value).startswith(f"{field}: {value}") and "finite" in str(err.value)
+
+
+def test_duration_must_be_a_multiple_of_dt():
+    """A dt that does not divide the duration is refused (not rounded); exact ones pass."""
+    with pytest.raises(ConfigError) as err:
+        load_scene(SCENES / "paper_linear.toml", ["dt=0.003", "duration=0.5"])
+    assert str(err.value) == "duration: 0.5 (must be a multiple of dt = 0.003 s)"
+    for dt, dur, n in ((0.003, 0.6, 200), (2.5e-4, 2.0, 8000), (1e-3, 10.0, 10000)):
+        assert load_scene(SCENES / "paper_linear.toml", [f"dt={dt}", f"duration={dur}"]
+                          ).n_steps == n
+
+
+@pytest.mark.parametrize("override, field", [
+    ("sensor.seed=-1", "sensor.seed"),
+    ("transfer.substeps=0", "transfer.substeps"),
+    ("transfer.substeps=-2", "transfer.substeps"),
+])
+@pytest.mark.parametrize("kind", ["ideal", "lti", "stewart"])
+def test_seed_and_transfer_substeps_validated(override, field, kind):
+    """A negative sensor seed and transfer.substeps < 1 are refused naming the scene key."""
+    with pytest.raises(ConfigError) as err:
+        load_scene(SCENES / "paper_linear.toml", ["duration=0.5", f"transfer.kind='{kind}'",
+                                                  "sensor.noise_std=0.1", override])
+    assert err.value.field == field
+
+
+def test_central_difference_refused_when_coupled_mode_too_fast():
+    """central_difference is refused when the numerical part with the part's spring has
+    ω_max ΔT ≥ 2 (here 2.12), although the numerical part alone (1.87) would pass."""
+    base = ["duration=0.5", "numerical.m=1.0", "experiment.k=1e6",
+            "numerical.integrator='central_difference'"]
+    with pytest.raises(ConfigError) as err:
+        load_scene(SCENES / "paper_linear.toml", [*base, "numerical.k=3.5e6"])
+    assert err.value.field == "numerical.integrator" and "2.12" in str(err.value)
+    sc = load_scene(SCENES / "paper_linear.toml", [*base, "numerical.k=2.5e6"])  # 1.87
+    assert sc.numerical.integrator == "central_difference"
+    load_scene(SCENES / "paper_linear.toml",
+               ["duration=0.5", "numerical.m=1.0", "experiment.k=1e6", "numerical.k=3.5e6"])

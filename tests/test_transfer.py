@@ -175,3 +175,61 @@ def test_lti_default_model_follows_the_leg_servo_settings(timeconst, velocity_ff
     # the settings move the delay by −3.5 … +12.8 ms from the identified 2.5 ms
     assert m["lti"]["fei_d"] == pytest.approx(m["stewart"]["fei_d"], abs=0.1e-3)
     assert m["lti"]["e_rel_track"] == pytest.approx(m["stewart"]["e_rel_track"], rel=0.1)
+
+
+def test_predicted_delay_of_a_model_with_feedthrough():
+    """transfer_meta.predicted_delay of G = 1 after 2 ms is 2 ms (the feedthrough gets no
+    half-step lead), and the simulation stays a plain 2-sample delay."""
+    from pathlib import Path
+
+    from rths3d.loop import run
+    from rths3d.scene import load_scene
+
+    scenes = Path(__file__).resolve().parents[1] / "scenes"
+    sc = load_scene(scenes / "paper_linear.toml", ["duration=1.0", "transfer.kind='lti'",
+                                                   "transfer.num=[1.0]", "transfer.den=[1.0]",
+                                                   "transfer.delay=0.002"])
+    rec = run(sc, reference=False).record
+    assert rec.meta["transfer_meta"]["predicted_delay"] == pytest.approx(0.002, abs=1e-9)
+    z, zm = rec.columns["z_cmd.z"], rec.columns["z_meas.z"]
+    np.testing.assert_array_equal(zm[2:], z[:-2])
+    # a strictly proper model keeps its half-step lead
+    sc2 = load_scene(scenes / "paper_linear.toml", ["duration=1.0", "transfer.kind='lti'",
+                                                    "transfer.num=[400.0]",
+                                                    "transfer.den=[1.0, 400.0]"])
+    pred = run(sc2, reference=False).record.meta["transfer_meta"]["predicted_delay"]
+    assert pred == pytest.approx(1 / 400 - 0.0005, abs=1e-8)
+
+
+def _peak_bytes(f, n: int = 10) -> int:
+    """Peak memory traced (numpy's arrays included) over n calls of f after a warm-up."""
+    import tracemalloc
+
+    for _ in range(3):
+        f()
+    tracemalloc.start()
+    try:
+        tracemalloc.reset_peak()
+        base = tracemalloc.get_traced_memory()[0]
+        for _ in range(n):
+            f()
+        return tracemalloc.get_traced_memory()[1] - base
+    finally:
+        tracemalloc.stop()
+
+
+def test_actuator_steps_allocate_no_arrays():
+    """One step of the delay lines, LTI actuators and polynomial compensation of K = 2000
+    channels allocates no array (< 4 kB traced, a (K,) float array is 16 kB)."""
+    K = 2000
+    u = np.linspace(0.0, 1e-3, K).reshape(K, 1)
+    parts = [DelayLine(K, 1, 0.0025, 1e-3),
+             PerTestDelayLine(K, 1, np.linspace(0.0, 0.004, K), 1e-3),
+             LTIActuator(K, 1, [1.0, 30.0], [1.0, 30.0, 900.0], 1e-3),
+             LTIActuator(K, 1, [1.0, 30.0], [1.0, 50.0], 1e-3),
+             PerTestLTIActuator(K, 1, [([1.0, 30.0], [1.0, 50.0]), ([900.0], [1.0, 30.0, 900.0])]
+                                * (K // 2), 1e-3)]
+    for part in parts:
+        assert _peak_bytes(lambda p=part: p(u)) < 4096, type(part).__name__
+    comp = Compensator(K, 1, "polynomial", 0.003, 1e-3, 3)
+    assert _peak_bytes(lambda: comp(u, u)) < 4096

@@ -56,6 +56,13 @@ class Specimen1D:
         self._fc = np.zeros(K)
         self._pen = np.zeros(K)
         self._dv = np.zeros(K)
+        # step buffers of the Euler path (no allocation per step or substep)
+        self._vm = np.zeros(K)
+        self._dz = np.zeros(K)
+        self._zm = np.zeros(K)
+        self._tmp = np.zeros(K)
+        self._inside = np.zeros(K, dtype=bool)
+        self._inside_f = np.zeros(K)  # the same as 0.0/1.0 (float × bool buffers in numpy)
 
     def reset(self) -> None:
         """Rest at static equilibrium."""
@@ -85,27 +92,43 @@ class Specimen1D:
         a1 = z1[:, 0]
         ns = self.substeps
         h = self.dt / ns
-        vm = (a1 - a0) / self.dt
         x, v = self.x, self.v
         if self.method == "euler":
-            dz = (a1 - a0) / ns
-            fc, pen, dv = self._fc, self._pen, self._dv
+            tmp = self._tmp
+            dz = np.subtract(a1, a0, out=self._dz)
+            vm = np.divide(dz, self.dt, out=self._vm)
+            dz /= ns
+            fc, pen, dv, zm = self._fc, self._pen, self._dv, self._zm
             for j in range(ns):
                 # dv = h/m · (k (z_m − x) + d (ż_m − ẋ) − F_c), F_c ≥ 0 only in contact
-                np.subtract(a0 + j * dz, x, out=dv) if j else np.subtract(a0, x, out=dv)
+                if j:
+                    np.multiply(j, dz, out=zm)
+                    np.add(a0, zm, out=zm)
+                    np.subtract(zm, x, out=dv)
+                else:
+                    np.subtract(a0, x, out=dv)
                 dv *= self._kh
                 if self._has_d:
-                    dv += self._dh * (vm - v)
+                    dv += np.multiply(self._dh, np.subtract(vm, v, out=tmp), out=tmp)
                 if self._has_contact:
                     np.subtract(x, self._h0, out=pen)
                     np.multiply(self._kch, pen, out=fc)
-                    fc += self._dch * v
+                    fc += np.multiply(self._dch, v, out=tmp)
                     np.maximum(fc, 0.0, out=fc)
-                    fc *= pen > 0.0
+                    np.greater(pen, 0.0, out=self._inside)
+                    np.copyto(self._inside_f, self._inside)
+                    fc *= self._inside_f
                     dv -= fc
                 v += dv
-                x += v * h
-        elif self.K == 1:
+                x += np.multiply(v, h, out=tmp)
+            # F_m at the end of the step: k (z'_{n+1} − x) + d (ż' − ẋ)
+            f = self.f[:, 0]
+            np.multiply(self.k, np.subtract(a1, x, out=f), out=f)
+            f += np.multiply(self.d, np.subtract(vm, v, out=tmp), out=tmp)
+            self._zm_prev[:] = a1
+            return self.f
+        vm = (a1 - a0) / self.dt
+        if self.K == 1:
             self._rk4_scalar(float(a0[0]), float(a1[0]), float(vm[0]), h)
         else:
             for j in range(ns):

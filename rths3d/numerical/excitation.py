@@ -59,12 +59,31 @@ def _read_csv(path: str, column: str) -> tuple[np.ndarray, np.ndarray]:
     p = Path(path)
     if not p.exists():
         raise ConfigError("excitation.file", path, "file not found")
-    frame = pd.read_csv(p)
+    try:
+        frame = pd.read_csv(p)
+    except (OSError, ValueError) as exc:  # pandas' ParserError and EmptyDataError included
+        raise ConfigError("excitation.file", path,
+                          f"unreadable CSV: {str(exc).strip().splitlines()[0]}") from None
     for c in ("t", column):
         if c not in frame.columns:
             raise ConfigError("excitation.column" if c == column else "excitation.file",
                               c, f"column missing in {path} (columns: {list(frame.columns)})")
-    return frame["t"].to_numpy(float), frame[column].to_numpy(float)
+    out = []
+    for c in ("t", column):
+        try:
+            a = frame[c].to_numpy(float)
+        except (TypeError, ValueError):
+            raise ConfigError("excitation.file", path,
+                              f"column {c!r} must hold numbers only") from None
+        if not np.all(np.isfinite(a)):
+            row = int(np.flatnonzero(~np.isfinite(a))[0])
+            raise ConfigError("excitation.file", path,
+                              f"column {c!r} must be finite (empty or NaN/inf at data row "
+                              f"{row})")
+        out.append(a)
+    if out[0].size < 2:
+        raise ConfigError("excitation.file", path, "need >= 2 samples")
+    return out[0], out[1]
 
 
 def load_history(exc: ExcitationConfig, M: np.ndarray, C: np.ndarray, K: np.ndarray,

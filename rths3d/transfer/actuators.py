@@ -33,6 +33,7 @@ class DelayLine:
         self.buf = np.zeros((self.size, K, n))
         self.i = 0
         self.out = np.zeros((K, n))
+        self._b = np.zeros((K, n))
 
     def reset(self) -> None:
         self.buf[:] = 0.0
@@ -47,7 +48,7 @@ class DelayLine:
         if self.frac:
             b = self.buf[(i - self.d0 - 1) % self.size]
             np.multiply(a, 1.0 - self.frac, out=self.out)
-            self.out += self.frac * b
+            self.out += np.multiply(self.frac, b, out=self._b)
         else:
             self.out[:] = a
         self.i = (i + 1) % self.size
@@ -91,9 +92,10 @@ class PerTestDelayLine:
         """Push u(t_n) (K, n); return u_k(t_n − τ_k) per test."""
         i, K = self.i, self.K
         self.buf[i * K:(i + 1) * K] = u
-        np.take(self.buf, self._row_a[i], axis=0, out=self.out)
+        # mode "clip" (the rows are valid): "raise" buffers the output inside numpy
+        np.take(self.buf, self._row_a[i], axis=0, out=self.out, mode="clip")
         if self._interp:
-            np.take(self.buf, self._row_b[i], axis=0, out=self._b)
+            np.take(self.buf, self._row_b[i], axis=0, out=self._b, mode="clip")
             self.out *= self._keep
             self._b *= self._frac
             self.out += self._b
@@ -238,6 +240,13 @@ class LTIActuator:
         self.Cd = Cd[0].copy()
         self.Dd = float(Dd[0, 0])
         self.x = np.zeros((K * n, self.ns))  # channels × states: one matmul per step
+        self._x_next = np.zeros((K * n, self.ns))  # swapped with x each step
+        # B u per channel from full-size operands (a broadcast product of two small axes
+        # makes numpy allocate an iteration buffer)
+        self._B = np.tile(self.Bd, (K * n, 1))
+        self._u = np.zeros((K * n, self.ns))
+        self._bu = np.zeros((K * n, self.ns))
+        self._du = np.zeros((K, n))
         self.y = np.zeros((K, n))
         self._y2 = self.y.reshape(K * n)
         self.num, self.den = num, den
@@ -250,12 +259,13 @@ class LTIActuator:
     def __call__(self, u: np.ndarray) -> np.ndarray:
         """Apply command u(t_n) (held until t_{n+1}); return the output y(t_{n+1})."""
         u2 = u.reshape(-1)
-        x = self.x @ self.AdT
-        x += u2[:, None] * self.Bd
-        self.x = x
+        x = np.matmul(self.x, self.AdT, out=self._x_next)
+        np.copyto(self._u, u2[:, None])
+        x += np.multiply(self._u, self._B, out=self._bu)
+        self.x, self._x_next = x, self.x
         np.matmul(x, self.Cd, out=self._y2)
         if self.Dd:
-            self.y += self.Dd * u
+            self.y += np.multiply(self.Dd, u, out=self._du)
         return self.y
 
     def delay_estimate(self) -> float:
@@ -296,6 +306,7 @@ class PerTestLTIActuator:
         self._x_next = np.zeros((C, ns, 1))
         self._x2, self._x_next2 = self.x[:, :, 0], self._x_next[:, :, 0]
         self._bu = np.zeros((C, ns))
+        self._u = np.zeros((C, ns))  # u per channel and state (see LTIActuator)
         self._du = np.zeros((K, n))
         self.y = np.zeros((K, n))
         self._y3 = self.y.reshape(C, 1, 1)
@@ -310,7 +321,8 @@ class PerTestLTIActuator:
         np.matmul(self.A, self.x, out=self._x_next)
         self.x, self._x_next = self._x_next, self.x
         self._x2, self._x_next2 = self._x_next2, self._x2
-        np.multiply(self.B, u.reshape(-1, 1), out=self._bu)
+        np.copyto(self._u, u.reshape(-1, 1))
+        np.multiply(self.B, self._u, out=self._bu)
         self._x2 += self._bu
         np.matmul(self.Cr, self.x, out=self._y3)
         if self._has_d:
@@ -362,34 +374,47 @@ class Compensator:
             np.multiply(zdot, self.tau, out=self.out)
             self.out += z
             return self.out
-        self.hist[1:] = self.hist[:-1].copy()
-        self.hist[0] = z
+        h = self.hist
+        for j in range(self.order, 0, -1):  # shift in place, newest first (no copy)
+            h[j] = h[j - 1]
+        h[0] = z
         np.einsum("j,jkn->kn", self.w, self.hist, out=self.out)
         return self.out
 
 
 class SensorModel:
     """Force-torque sensor between F_m and F'_m: optional first-order dynamics (time constant
-    τ_f), gain, offset, white noise (std, seeded) and a delay. ``ideal`` passes F_m."""
+    τ_f), gain, offset, white noise (std, seeded) and a delay. ``ideal`` passes F_m.
+
+    ``seed``: one seed for the K tests (one noise stream drawn across them), or a sequence of
+    K seeds, one generator per test, so that a test's noise depends only on its own seed, not
+    on the tests stepped with it."""
 
     def __init__(self, K: int, n: int, dt: float, kind: str = "ideal", time_constant: float = 0,
                  noise_std: float = 0.0, gain: float = 1.0, offset: float = 0.0,
-                 delay: float = 0.0, seed: int = 0):
+                 delay: float = 0.0, seed: int | Sequence[int] = 0):
         self.ideal = (kind == "ideal" and noise_std == 0 and gain == 1 and offset == 0
                       and delay == 0)
         self.alpha = 1.0 - math.exp(-dt / time_constant) if kind == "first_order" else 1.0
         self.gain, self.offset, self.noise_std = gain, offset, noise_std
-        self.rng = np.random.default_rng(seed)
+        if not isinstance(seed, int | np.integer) and len(seed) != K:
+            raise ValueError(f"seed: {len(seed)} seeds given for K = {K} tests")
         self.seed = seed
+        self.rng = self._generators()
         self.state = np.zeros((K, n))
         self.out = np.zeros((K, n))
         self.delay = DelayLine(K, n, delay, dt) if delay > 0 else None
 
     def reset(self) -> None:
         self.state[:] = 0.0
-        self.rng = np.random.default_rng(self.seed)
+        self.rng = self._generators()
         if self.delay is not None:
             self.delay.reset()
+
+    def _generators(self):
+        if isinstance(self.seed, int | np.integer):
+            return np.random.default_rng(self.seed)
+        return [np.random.default_rng(int(s)) for s in self.seed]
 
     def __call__(self, f: np.ndarray) -> np.ndarray:
         if self.ideal:
@@ -400,7 +425,11 @@ class SensorModel:
             self.state[:] = f
         out = self.gain * self.state + self.offset
         if self.noise_std:
-            out += self.noise_std * self.rng.standard_normal(out.shape)
+            if isinstance(self.rng, list):
+                out += self.noise_std * np.stack([g.standard_normal(out.shape[1:])
+                                                  for g in self.rng])
+            else:
+                out += self.noise_std * self.rng.standard_normal(out.shape)
         if self.delay is not None:
             out = self.delay(out)
         self.out[:] = out

@@ -329,9 +329,12 @@ def _lti_meta(num, den, delay: float, dt: float) -> dict:
     meta: dict = {"num": list(map(float, num)), "den": list(map(float, den)), "delay": delay}
     try:
         # low-frequency delay of z' behind z: G's group delay, the pure delay, and the
-        # half-step lead of holding z_{n+1} over [t_n, t_{n+1}]
-        meta["predicted_delay"] = LTIActuator(1, 1, num, den, dt).delay_estimate() \
-            + delay - 0.5 * dt
+        # half-step lead of holding z_{n+1} over [t_n, t_{n+1}] — which only the dynamic
+        # part of G sees: its feedthrough D (the share D/G(0) of the DC gain) reads z_{n+1}
+        # at t_{n+1}, without a lead
+        act = LTIActuator(1, 1, num, den, dt)
+        share = act.Dd / act.dcgain if act.Dd else 0.0
+        meta["predicted_delay"] = act.delay_estimate() + delay - (1.0 - share) * 0.5 * dt
     except (ValueError, ZeroDivisionError):
         meta["predicted_delay"] = math.nan
     return meta
