@@ -645,7 +645,8 @@ def _group_key(s: Scene) -> tuple:
     # platform the parts' parameters and the leg-servo settings may differ too (per-test
     # models of one structure): only the part kind, the actuator delay and whether the servo
     # has a lag change the model's structure. On the delay and LTI paths the actuator model, its
-    # delay and a velocity compensation (or none) are per test as well.
+    # delay and a velocity compensation (or none) are per test as well; so is the sensor's
+    # noise seed (one generator per test).
     tr = s.transfer
     if tr.kind in ("delay", "lti") and tr.compensation in PER_TEST_COMPENSATION:
         tr = replace(tr, compensation="", **{k: None for k in ACTUATOR_PER_TEST})
@@ -657,8 +658,8 @@ def _group_key(s: Scene) -> tuple:
         exp = s.experiment
     else:
         exp = (s.experiment.kind, s.experiment.substeps)
-    return (s.dt, s.duration, s.dofs, tr, s.sensor, s.safety, exp, s.numerical.integrator,
-            np.array(s.numerical.gamma).tobytes())
+    return (s.dt, s.duration, s.dofs, tr, replace(s.sensor, seed=0), s.safety, exp,
+            s.numerical.integrator, np.array(s.numerical.gamma).tobytes())
 
 
 def run_batch(scene: Scene, param_sets: Sequence[Mapping[str, Any]], transfer: str | None = None,

@@ -580,3 +580,21 @@ def test_batched_step_parts_allocate_no_arrays():
         assert peak(lambda n=num: n.step(3, f)) < 4096
     spec = build_transfer(sc, K).specimen
     assert peak(lambda: spec.advance(z0, z1)) < 4096
+
+
+def test_noisy_tests_of_different_seeds_step_together() -> None:
+    """Tests differing only in their sensor seed form one group, each with its own noise."""
+    from rths3d.loop import _group_key, scene_with
+
+    sc = load_scene("paper_contact")
+    ps = [{"sensor.noise_std": 5.0, "sensor.seed": s, "duration": 0.5, "transfer.kind": "lti"}
+          for s in (3, 4)]
+    scenes = [scene_with(sc, p) for p in ps]
+    assert _group_key(scenes[0]) == _group_key(scenes[1])
+    together = run_batch(sc, ps)
+    for p, r in zip(ps, together, strict=True):
+        alone = run_batch(sc, [p])[0]
+        np.testing.assert_allclose(r.record.signal("f_meas"), alone.record.signal("f_meas"),
+                                   rtol=0, atol=1e-9)
+    assert not np.allclose(together[0].record.signal("f_meas"),
+                           together[1].record.signal("f_meas"))

@@ -251,7 +251,8 @@ transfer = "lti"
 
 
 def test_noisy_test_result_does_not_depend_on_its_batch(tmp_path) -> None:
-    """A noisy test's result depends on its own seed only: equal in a batch of two and alone."""
+    """A noisy test's result depends on its own seed only: equal (to rounding) stepped together
+    with another test and alone."""
     from dataclasses import replace
 
     p = tmp_path / "noisy.toml"
@@ -260,8 +261,9 @@ def test_noisy_test_result_does_not_depend_on_its_batch(tmp_path) -> None:
     together = run_sweep(spec, tmp_path / "a", workers=1, progress=False)
     alone = run_sweep(replace(spec, batch_size=1), tmp_path / "b", workers=1, progress=False)
     e = together["target.e_rel_ref"].to_numpy()
-    np.testing.assert_array_equal(e, alone["target.e_rel_ref"].to_numpy())
-    assert e[0] != e[1]  # two seeds, two noise draws
+    # stepped together (one group, per-test generators) vs the single-test path: rounding only
+    np.testing.assert_allclose(e, alone["target.e_rel_ref"].to_numpy(), rtol=1e-9)
+    assert abs(e[0] - e[1]) > 1e-6 * abs(e[0])  # two seeds, two noise draws
 
 
 def test_sensor_model_per_test_seeds_are_independent_of_batch() -> None:

@@ -37,7 +37,7 @@ def _overrides(spec: SweepSpec, test: dict[str, Any], base=None) -> dict[str, An
     noise = ov.get("sensor.noise_std", base.sensor.noise_std if base is not None else 0.0)
     if noise:
         # the test's own seed, so that its noise does not depend on its batch-mates; only for
-        # noisy tests, since the loop steps tests of different sensor seeds apart
+        # noisy tests (the seed does nothing without noise)
         ov.setdefault("sensor.seed", int(test["seed"]))
     return ov
 

@@ -135,7 +135,7 @@ class StewartTransfer:
                                        tr.poly_order)
         s = scene.sensor
         self.sensor = SensorModel(K, self.n_if, scene.dt, s.kind, s.time_constant, s.noise_std,
-                                  s.gain, s.offset, s.delay, s.seed)
+                                  s.gain, s.offset, s.delay, sensor_seeds(scene, scenes, K))
         self.single = K == 1
         if self.single:
             from ..platform.sim import PlatformSim
@@ -216,6 +216,16 @@ class StewartTransfer:
                 self.stopped[:] = sim.stopped
                 self.reasons = list(sim.reasons)
         self.f_meas[:] = self.sensor(f)
+
+
+def sensor_seeds(scene: Scene, scenes: Sequence[Scene] | None, K: int) -> int | list[int]:
+    """The sensor's noise seed: the scene's one, or one per test when tests stepped together
+    carry their own (the loop's group key ignores ``sensor.seed``), so that a test's noise
+    depends on its seed alone, not on the batch it ran in."""
+    if scenes is None or K == 1:
+        return scene.sensor.seed
+    seeds = [sc.sensor.seed for sc in scenes]
+    return seeds[0] if len(set(seeds)) == 1 else seeds
 
 
 def build_transfer(scene: Scene, K: int, experiments: Sequence[ExperimentConfig] | None = None,
@@ -305,7 +315,7 @@ def build_transfer(scene: Scene, K: int, experiments: Sequence[ExperimentConfig]
         comp = Compensator(K, n_if, "velocity", taus, scene.dt)
     s = scene.sensor
     sensor = SensorModel(K, n_if, scene.dt, s.kind, s.time_constant, s.noise_std, s.gain,
-                         s.offset, s.delay, s.seed)
+                         s.offset, s.delay, sensor_seeds(scene, scenes, K))
     out = ActuatorTransfer(tr.kind, K, n_if, act, spec, comp, sensor, meta, metas)
     out.delay_line, out.lti = delay_line, lti_act  # the parts, for the single-test kernel
     return out
