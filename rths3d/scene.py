@@ -590,9 +590,13 @@ def load_scene(path: str | Path, overrides: Sequence[str] | Mapping[str, Any] = 
             p = cand
     if not p.exists():
         raise ConfigError("scene", str(path), "file not found")
+    if not p.is_file():
+        raise ConfigError("scene", str(path), "is a folder, not a TOML file")
     try:
         raw = tomllib.loads(p.read_text())
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError("scene", str(p), f"invalid TOML: {exc}") from None
+    except UnicodeDecodeError:
+        raise ConfigError("scene", str(p), "not a text TOML file") from None
     raw = apply_overrides(raw, overrides)
     return scene_from_dict(raw, name=p.stem, source=str(p))

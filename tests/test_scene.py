@@ -139,3 +139,15 @@ def test_central_difference_refused_when_coupled_mode_too_fast():
     assert sc.numerical.integrator == "central_difference"
     load_scene(SCENES / "paper_linear.toml",
                ["duration=0.5", "numerical.m=1.0", "experiment.k=1e6", "numerical.k=3.5e6"])
+
+
+def test_folder_or_binary_file_as_scene_is_a_config_error(tmp_path) -> None:
+    """A folder or a binary file given as a scene names the path, not a decode traceback."""
+    from rths3d.errors import ConfigError
+
+    binary = tmp_path / "run.toml"
+    binary.write_bytes(bytes([0x90, 0xFF, 0x00, 0x81]))
+    with pytest.raises(ConfigError, match="not a text TOML file"):
+        load_scene(binary)
+    with pytest.raises(ConfigError, match="folder"):
+        load_scene(tmp_path)
