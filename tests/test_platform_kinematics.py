@@ -157,3 +157,27 @@ def test_bad_geometry_and_pose_values_are_named():
         inverse_kinematics(G, [0, 0, float("nan"), 0, 0, 0])
     with pytest.raises(ConfigError, match="pose"):
         inverse_kinematics(G, [0, 0, 0])
+
+
+def test_fk_rejects_the_mirrored_branch_naming_sample_and_lengths():
+    """A solution with the plate at or below the base (mirrored branch) raises, naming the
+    sample and its leg lengths, instead of returning it."""
+    L = G.home_leg_lengths()
+    with pytest.raises(ForwardKinematicsError, match=r"lengths \[0\.451197 .*at or below the "
+                                                     r"base"):
+        forward_kinematics(G, L, guess=[0, 0, -0.7, 0, 0, 0])
+    guess = np.array([[0, 0, 0, 0, 0, 0], [0, 0, -0.7, 0, 0, 0]], float)
+    with pytest.raises(ForwardKinematicsError, match=r"sample 1, lengths \[0\.451197"):
+        forward_kinematics(G, np.stack([L, L]), guess=guess)
+    assert np.allclose(forward_kinematics(G, L), 0.0, atol=1e-12)  # home from above
+
+
+def test_fk_failures_name_sample_and_lengths():
+    """Non-convergence and a singular Jacobian name the failing sample and its lengths."""
+    L = G.home_leg_lengths()
+    short = np.full(6, 0.1)  # no pose reaches it
+    with pytest.raises(ForwardKinematicsError, match=r"did not converge .*sample 1, lengths "
+                                                     r"\[0\.1 0\.1 0\.1"):
+        forward_kinematics(G, np.stack([L, short]))
+    with pytest.raises(ForwardKinematicsError, match=r"lengths \[0\.451197.*singular"):
+        forward_kinematics(G, L, guess=[0, 0, -G.home_height, 0, 0, 0])

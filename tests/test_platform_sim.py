@@ -17,6 +17,9 @@ MASS = 2.0  # kg, payload of the FTS tests
 COM = 0.05  # m, payload centre of mass above the FTS site
 PAYLOAD = (f'<body name="mass"><geom type="box" size="0.05 0.05 {COM}" pos="0 0 {COM}" '
            f'mass="{MASS}"/></body>')
+# a stiff, light specimen: explicit in its spring, it blows up within a few 1 ms steps
+STIFF = ('<body name="spec"><joint name="spec_z" type="slide" axis="0 0 1" stiffness="1e9"/>'
+         '<geom type="sphere" size="0.02" mass="0.001" pos="0 0 0.02"/></body>')
 
 
 @pytest.fixture(scope="module")
@@ -215,11 +218,9 @@ def test_force_limit_stops_with_measured_force():
 
 
 def test_blow_up_detected_not_silently_reset():
-    """An unstable servo (kp 1e7 at 1 ms) is caught as divergence, never a silent reset."""
-    cfg = PlatformConfig(actuator=ActuatorConfig(kp=1e7, kv=1e3, velocity_ff=False,
-                                                 force_limit=1e12, velocity_limit=1e9,
-                                                 stroke=1e3))
-    sim = PlatformSim(cfg)
+    """An unstable specimen (1e9 N/m on 1 g at 1 ms) is caught as divergence, never a silent
+    reset (the legs stay within their real stroke, so the blow-up itself stops the test)."""
+    sim = PlatformSim(PlatformConfig(), payload_xml=STIFF, settle=0.0)
     with pytest.raises(SafetyStop, match="divergence") as info:
         for k in range(1000):
             sim.step(0.0, 0.0, 1e-5 * k, 0.0, 0.0, 0.0)
@@ -288,16 +289,9 @@ def test_batch_matches_single_and_freezes_stopped_test():
 
 
 def test_batch_divergence_flags_only_the_unstable_test():
-    """A batch test with unstable gains is flagged 'divergence'; a stable one runs on."""
-    cfg = PlatformConfig(actuator=ActuatorConfig(kp=1e7, kv=1e3, velocity_ff=False,
-                                                 force_limit=1e12, velocity_limit=1e9,
-                                                 stroke=1e3))
-    batch = PlatformBatch(cfg, nsim=2, nthread=1)
-    gain = batch.batch.expand("actuator_gainprm")
-    bias = batch.batch.expand("actuator_biasprm")
-    gain[0, :6, 0] = 2e5  # test 0: the default, stable servo
-    bias[0, :6, 1] = -2e5
-    bias[0, :6, 2] = -2e3
+    """A batch test with an unstable specimen is flagged 'divergence'; a stable one runs on."""
+    batch = PlatformBatch(PlatformConfig(), nsim=2, nthread=1, payload_xml=STIFF, settle=0.0)
+    batch.batch.joint("spec_z").stiffness = np.array([[1e3], [1e9]])  # test 0: stable
     batch.reset()
     for k in range(600):
         q = np.zeros((2, 6))
@@ -305,7 +299,8 @@ def test_batch_divergence_flags_only_the_unstable_test():
         batch.step(q)
     assert list(batch.stopped) == [False, True]
     assert "divergence" in batch.reasons[1] and "bad acceleration" in batch.reasons[1]
-    assert batch.pose[0, 2] == pytest.approx(1e-5 * 599, abs=3e-4)  # ramp lags ~14 ms
+    assert 0.0 < batch.stop_time[1] < 0.1
+    assert batch.pose[0, 2] == pytest.approx(1e-5 * 599, abs=3e-4)  # the ramp, a few ms late
     assert abs(batch.pose[0, 2]) > 1e-3
 
 
@@ -416,3 +411,80 @@ def test_batch_variants_per_test_servo_settings():
     with pytest.raises(ConfigError, match="delay"):
         PlatformBatch(nsim=2, variants=[(fast, None, None), (PlatformConfig(
             actuator=ActuatorConfig(delay=0.004)), None, None)])
+
+
+def test_variants_of_another_structure_raise_config_error():
+    """Variants whose payloads differ in structure raise a one-line ConfigError, not
+    mujoco.FatalError."""
+    other = '<body name="p"><geom type="sphere" size=".05" mass="1"/></body>'
+    with pytest.raises(ConfigError, match="variants: .*one model structure"):
+        PlatformBatch(nsim=2, nthread=1, variants=[(PlatformConfig(), None, None),
+                                                   (PlatformConfig(), other, None)])
+
+
+def test_variants_reset_set_const_recomputes_each_model():
+    """reset(set_const=True) on a variant batch recomputes each test's model constants: a
+    payload made heavier on one variant model gets its own FTS preload."""
+    pay = '<body name="payload"><geom type="box" size=".05 .05 .05" mass="5"/></body>'
+    variants = [(PlatformConfig(), pay, None),
+                (PlatformConfig(actuator=ActuatorConfig(kp=3e5)), pay, None)]
+    batch = PlatformBatch(nsim=2, nthread=1, variants=variants)
+    heavy = batch.batch.models[1]
+    b = heavy.body("payload").id
+    heavy.body_mass[b] = 20.0
+    heavy.body_inertia[b] *= 4.0
+    batch.reset(set_const=True)
+    assert batch.wrench[:, 2] == pytest.approx([5 * 9.81, 20 * 9.81], rel=1e-3)
+    assert np.abs(batch.interface_wrench[:, 2]).max() < 0.05  # the preload follows the mass
+
+
+def test_measured_limits_report_the_same_reason_in_single_and_batch():
+    """A leg over stroke while another is over speed stops with the same reason in
+    PlatformSim and PlatformBatch (leg by leg, then stroke, speed, force)."""
+    sim = PlatformSim(settle=0.0)
+    q, v, f = [0.0, 0.0, 0.06, 0.0, 0.0, 0.0], [0.5, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0] * 6
+    with pytest.raises(SafetyStop) as info:
+        sim._check_measured(q, v, f)
+    batch = PlatformBatch(nsim=1, nthread=1, settle=0.0)
+    batch._measured_limits(np.array([q]), np.array([v]), np.array([f]))
+    assert info.value.reason == batch.reasons[0]
+    assert info.value.quantity == "leg 0 velocity"
+
+
+def test_stroke_override_beyond_the_legs_is_rejected():
+    """An actuator stroke override whose half exceeds the home leg length is a ConfigError."""
+    with pytest.raises(ConfigError, match="actuator.stroke: 5.0 .*home leg length 0.4512 m"):
+        PlatformConfig(actuator=ActuatorConfig(stroke=5.0))
+    assert PlatformConfig(actuator=ActuatorConfig(stroke=0.9)).stroke == 0.9
+
+
+def test_stopped_sim_stays_stopped_until_reset():
+    """After a SafetyStop every step raises it again without moving, until reset()."""
+    sim = PlatformSim(PlatformConfig())
+    sim.step(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    with pytest.raises(SafetyStop) as first:
+        sim.step(0.0, 0.0, 0.06, 0.0, 0.0, 0.0)
+    assert sim.stopped_by is first.value
+    t, time = sim.t, float(sim.data.time)
+    for _ in range(2):
+        with pytest.raises(SafetyStop) as again:
+            sim.step(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        assert again.value.reason == first.value.reason
+    assert (sim.t, float(sim.data.time)) == (t, time)  # not stepped
+    sim.reset()
+    assert sim.stopped_by is None
+    sim.step(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    assert sim.t == pytest.approx(sim.config.dt)
+
+
+def test_settle_zero_reads_the_compensated_state():
+    """With settle=0, leg forces and the interface wrench describe the gravity-compensated
+    state (static forces, preload removed), in PlatformSim and PlatformBatch."""
+    pay = '<body name="payload"><geom type="box" size=".05 .05 .05" mass="5"/></body>'
+    sim = PlatformSim(payload_xml=pay, settle=0.0)
+    assert np.allclose(sim.leg_forces, sim.static.leg_forces, rtol=1e-6)
+    assert abs(sim.interface_wrench[2]) < 1.0  # was −51.7 N: forces of ctrl = 0
+    batch = PlatformBatch(nsim=2, nthread=1, payload_xml=pay, settle=0.0)
+    np.testing.assert_allclose(batch.leg_forces, np.tile(sim.leg_forces, (2, 1)), atol=1e-9)
+    np.testing.assert_allclose(batch.interface_wrench, np.tile(sim.interface_wrench, (2, 1)),
+                               atol=1e-9)

@@ -34,6 +34,7 @@ File format (``assets/platform_heave_tf.json``, JSON, SI units)::
 
 from __future__ import annotations
 
+import cmath
 import contextlib
 import json
 import math
@@ -102,7 +103,8 @@ def heave_response(config: PlatformConfig, pose: tuple[float, ...] = (0.0,) * 6,
     """Measured heave response ``H(j2πf)`` (lines f in Hz, complex H) about ``pose``.
 
     Moves from home to ``pose`` (1 s raised-cosine ramp, then 0.5 s hold), fades the
-    multisine in over its first period and evaluates the last period.
+    multisine in over its first second (raised cosine; over the first period if that is
+    shorter) and evaluates the last period.
     """
     sim = sim or PlatformSim(config)
     sim.reset()
@@ -230,9 +232,26 @@ class HeaveTF:
         return _tf_eval(np.array(self.num), np.array(self.den), self.delay, np.asarray(f))
 
     def phase_delay(self, f: float) -> float:
-        """Phase delay −∠G(j2πf)/(2πf) (s) at frequency f (Hz)."""
+        """Phase delay −∠G(j2πf)/(2πf) (s) at frequency f (Hz), with the phase continuous
+        from 0 Hz (unwrapped: the transport delay's −ωT plus the phase of each pole and zero
+        factor), so the delay stays continuous where the principal angle would wrap at ±π.
+        """
         g = complex(self.frequency_response(np.array([f]))[0])
-        return -math.atan2(g.imag, g.real) / (2 * math.pi * f)
+        phase = math.atan2(g.imag, g.real)
+        w = 2 * math.pi * f
+        s = 1j * w
+        # continuous phase: each factor (s − r) turns by ∠((s − r)/(−r)) from 0 Hz on, a
+        # root at 0 by π/2; the low-frequency gain's sign sets the start (0 or π)
+        num = np.trim_zeros(np.asarray(self.num, float), "f")
+        den = np.trim_zeros(np.asarray(self.den, float), "f")
+        c = np.trim_zeros(num, "b")[-1] / np.trim_zeros(den, "b")[-1]
+        cont = -w * self.delay + (0.0 if c > 0 else math.pi)
+        for coef, sign in ((num, 1.0), (den, -1.0)):
+            for r in np.roots(coef):
+                cont += sign * (math.pi / 2 if r == 0 else cmath.phase((s - r) / -r))
+        # the exact principal angle, on the branch of the continuous one
+        phase += 2 * math.pi * round((cont - phase) / (2 * math.pi))
+        return -phase / w
 
 
 @dataclass

@@ -123,8 +123,11 @@ def forward_kinematics(geom: StewartGeometry, lengths: np.ndarray,
 
     Vectorised: lengths (..., 6) → poses (..., 6). Starts from ``guess`` (default: home) and
     stops when every leg-length residual is below ``tol`` (m). Raises
-    :class:`ForwardKinematicsError` naming the residual if ``max_iter`` iterations do not
-    converge (e.g. lengths that no pose reaches, or a guess in another assembly branch).
+    :class:`ForwardKinematicsError` naming the sample (of several) and its leg lengths if
+    ``max_iter`` iterations do not converge (e.g. lengths that no pose reaches), if the
+    Jacobian is singular, or if the pose found puts the plate at or below the base plane
+    (``z + home_height <= 0``: the mirrored assembly branch, reached from a guess below the
+    base).
     """
     L = np.asarray(lengths, dtype=float)
     if L.shape[-1:] != (6,) or not np.all(np.isfinite(L)) or np.any(L <= 0):
@@ -132,24 +135,46 @@ def forward_kinematics(geom: StewartGeometry, lengths: np.ndarray,
                           "need (..., 6) finite positive leg lengths in m")
     q = np.zeros(L.shape) if guess is None else np.array(
         np.broadcast_to(_as_poses(guess, "guess"), L.shape), dtype=float)
+    flat_L = L.reshape(-1, 6)
+
+    def where(k: int) -> str:
+        w = f"lengths {np.array2string(flat_L[k], precision=6)} m"
+        return f"sample {k}, {w}" if flat_L.shape[0] > 1 else w
+
     res = np.inf
+    r = np.zeros(L.shape)
     for _ in range(int(max_iter)):
         r = inverse_kinematics(geom, q) - L
         res = float(np.max(np.abs(r))) if r.size else 0.0
         if res < tol:
+            z = q.reshape(-1, 6)[:, 2] + geom.home_height
+            if np.any(z <= 0):
+                k = int(np.flatnonzero(z <= 0)[0])
+                raise ForwardKinematicsError(
+                    f"forward kinematics: {where(k)}: the solution puts the plate at "
+                    f"z = {z[k]:.6g} m, at or below the base (mirrored assembly branch); "
+                    "start from a guess above the base")
             return q
         J = jacobian(geom, q)
         try:
             dq = np.linalg.solve(J, r[..., None])[..., 0]
         except np.linalg.LinAlgError as exc:
+            cond = np.linalg.cond(J.reshape(-1, 6, 6))
+            k = int(np.argmax(np.where(np.isfinite(cond), cond, np.inf)))
             raise ForwardKinematicsError(
-                "forward kinematics: singular Jacobian (pose at a singularity)") from exc
+                f"forward kinematics: {where(k)}: singular Jacobian (pose at a "
+                "singularity)") from exc
         q = q - dq
         if not np.all(np.isfinite(q)):
-            break
+            k = int(np.flatnonzero(~np.all(np.isfinite(q.reshape(-1, 6)), axis=1))[0])
+            raise ForwardKinematicsError(
+                f"forward kinematics: {where(k)}: the Newton iteration diverged (lengths "
+                "unreachable or guess too far)")
+    rk = np.abs(r).reshape(-1, 6).max(axis=1)
+    k = int(np.argmax(rk))
     raise ForwardKinematicsError(
-        f"forward kinematics did not converge in {max_iter} iterations: leg-length residual "
-        f"{res:.3g} m > tol {tol:.3g} m (lengths unreachable or guess too far)")
+        f"forward kinematics did not converge in {max_iter} iterations: {where(k)}: leg-length "
+        f"residual {rk[k]:.3g} m > tol {tol:.3g} m (lengths unreachable or guess too far)")
 
 
 def check_workspace(geom: StewartGeometry, pose: np.ndarray) -> np.ndarray:

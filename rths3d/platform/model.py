@@ -148,6 +148,9 @@ class PlatformConfig:
         if len(self.eq_solref) != 2 or len(self.eq_solimp) != 3:
             raise ConfigError("platform.eq_solref/eq_solimp", (self.eq_solref, self.eq_solimp),
                               "need 2 and 3 numbers")
+        short = float(self.geometry.home_leg_lengths().min())
+        _check("actuator.stroke", self.stroke, self.stroke / 2 < short,
+               f"half the stroke must be shorter than the home leg length {short:.4g} m")
 
     @property
     def timestep(self) -> float:

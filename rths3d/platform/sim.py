@@ -243,7 +243,9 @@ class PlatformSim:
     leaves its stroke, speed or force limit, or when MuJoCo reports a bad acceleration
     (divergence; MuJoCo would otherwise silently reset the state). The stop's time ``t`` is
     the time the offending step's command was meant for (``(k + 1)·ΔT`` for step k, as in
-    the records of :func:`~rths3d.platform.tracking.track`).
+    the records of :func:`~rths3d.platform.tracking.track`). A stopped platform stays
+    stopped, as a bench would: ``stopped_by`` holds the stop and every later ``step`` raises
+    it again until :meth:`reset`.
     """
 
     def __init__(self, config: PlatformConfig | None = None, payload_xml: str | None = None,
@@ -294,6 +296,8 @@ class PlatformSim:
         self._site_xmat = d.site_xmat[ids.fts_site]
         self._warn = d.warning[_BADQACC]
         self.static: StaticState | None = None
+        self.stopped_by: SafetyStop | None = None
+        """The SafetyStop that stopped the platform (``step`` raises it again), or None."""
         self.reset()
 
     # ------------------------------------------------------------------ setup
@@ -319,13 +323,19 @@ class PlatformSim:
         self._Lprev = list(self._home)
         self._lcmd = list(self._home)
         self._count = [0, self._warn.number]
+        self.stopped_by = None
         self._step = self.step = _make_step(self)
         nset = int(round(self.settle / self.config.timestep))
         for _ in range(nset):
             mujoco.mj_step(m, d)
+        if not nset:  # forces and sensors of the compensated state (a step computes them)
+            mujoco.mj_forward(m, d)
         if self._warn.number != self._count[1]:
-            raise SafetyStop(f"divergence (MuJoCo bad acceleration at DOF {self._warn.lastinfo})"
-                             " while settling at home, |qacc|", math.inf, _MAXVAL, 0.0)
+            stop = SafetyStop(f"divergence (MuJoCo bad acceleration at DOF "
+                              f"{self._warn.lastinfo}) while settling at home, |qacc|",
+                              math.inf, _MAXVAL, 0.0)
+            self._halt(stop)
+            raise stop
 
     # ------------------------------------------------------------------ hot path
     @property
@@ -343,10 +353,23 @@ class PlatformSim:
 
     def _stop(self, quantity: str, value: float, limit: float, unit: str,
               ahead: int = 0) -> None:
-        raise SafetyStop(quantity, value, limit, (self._count[0] + ahead) * self._dt, unit=unit)
+        stop = SafetyStop(quantity, value, limit, (self._count[0] + ahead) * self._dt, unit=unit)
+        self._halt(stop)
+        raise stop
+
+    def _halt(self, stop: SafetyStop) -> None:
+        """Keep the platform stopped: every later ``step`` raises ``stop`` again until reset.
+
+        NaN previous leg lengths fail the step's speed check, which sends it to
+        :meth:`_check_command` (no cost on the running path)."""
+        self.stopped_by = stop
+        self._Lprev[:] = [math.nan] * 6
 
     def _check_command(self, L: tuple) -> None:
         """Raise the SafetyStop for the first commanded leg outside stroke or speed."""
+        if self.stopped_by is not None:
+            s = self.stopped_by
+            raise SafetyStop(s.quantity, s.value, s.limit, s.t, s.test, s.unit)
         dt = self._dt
         for i, Li in enumerate(L):
             s = Li - self._home[i]
@@ -358,12 +381,13 @@ class PlatformSim:
         raise AssertionError("unreachable: command check found no violation")  # pragma: no cover
 
     def _check_measured(self, q: list, v: list, f: list) -> None:
-        for name, vals, lim, unit in (("stroke", q, self._smax, "m"),
-                                      ("velocity", v, self._vmax, "m/s"),
-                                      ("force", f, self._fmax, "N")):
-            for i, val in enumerate(vals):
-                if abs(val) > lim:
-                    self._stop(f"leg {i} {name}", val, lim, unit)
+        """Raise the SafetyStop for the first leg (then stroke, speed, force) out of limits."""
+        for i in range(6):
+            for name, vals, lim, unit in (("stroke", q, self._smax, "m"),
+                                          ("velocity", v, self._vmax, "m/s"),
+                                          ("force", f, self._fmax, "N")):
+                if abs(vals[i]) > lim:
+                    self._stop(f"leg {i} {name}", vals[i], lim, unit)
 
     # ------------------------------------------------------------------ reads
     @property
@@ -443,8 +467,11 @@ class PlatformBatch:
 
     Per-test model parameters: ``batch.batch.expand(field)`` (see
     ``mujoco.batch.Batch.expand``), e.g. payload masses through
-    ``batch.batch.body(name).mass = masses[:, None]``; then call ``reset(set_const=True)``
-    so that the static equilibrium (gravity compensation, FTS preload) follows.
+    ``batch.batch.body(name).mass = masses[:, None]`` (with ``.inertia`` scaled alike: a
+    heavier payload of one shape); then call ``reset(set_const=True)`` so that the static
+    equilibrium (gravity compensation, FTS preload) follows. ``variants`` (one
+    ``(config, payload_xml, world_xml)`` per test, one model structure) run each test on its
+    own compiled model; a payload or world of another structure raises ConfigError.
     """
 
     def __init__(self, config: PlatformConfig | None = None, nsim: int = 1, nthread: int = 0,
@@ -489,9 +516,11 @@ class PlatformBatch:
                     compiled[v] = build_model(*v)
             try:
                 self.batch.set_models([compiled[v] for v in variants])
-            except ValueError as exc:
-                raise ConfigError("variants", None, "", message="tests stepped together need "
-                                  f"one model structure: {exc}") from exc
+            except (ValueError, mujoco.FatalError) as exc:
+                # FatalError: a payload or world of another structure (bodies, joints, ...)
+                raise ConfigError("variants", None, "", message="variants: tests stepped "
+                                  "together need one model structure (the same payload and "
+                                  f"world bodies, joints and sensors): {exc}") from exc
             self._cfgs = [v[0] for v in variants]
         self._ctrl = self.batch.bind("ctrl")
         self._qpos = self.batch.bind("qpos")
@@ -545,11 +574,20 @@ class PlatformBatch:
         """All tests to home with gravity compensation; clears stop flags; ``t = 0``.
 
         ``set_const=True`` first recomputes MuJoCo's derived constants per test (needed after
-        changing masses or inertias, e.g. ``batch.batch.body("payload").mass = m[:, None]``).
+        changing masses or inertias, e.g. ``batch.batch.body("payload").mass = m[:, None]``);
+        with ``variants`` it recomputes them on each test's own model (``batch.batch.models``).
         """
         mujoco = self._mujoco
         if set_const:
-            self.batch.set_const()
+            models = self.batch.models
+            if models is None:
+                self.batch.set_const()
+            else:  # caller models: the batch refuses set_const, so run it per model
+                models = [models] * self.nsim if isinstance(models, mujoco.MjModel) \
+                    else list(models)
+                for mk in {id(mk): mk for mk in models}.values():
+                    mujoco.mj_setConst(mk, mujoco.MjData(mk))
+                self.batch.set_models(models)
         m = self.model
         cfg = self.config
         offs = np.zeros((self.nsim, 6))
@@ -589,6 +627,8 @@ class PlatformBatch:
         self._t0 = nset * cfg.timestep
         if nset:
             self.batch.step(nstep=nset)
+        else:  # forces and sensors of the compensated state (a step computes them)
+            self.batch.forward()
         self.k = 0
         self._check_status(settling=True)
 
