@@ -25,7 +25,10 @@ def main() -> None:
     K = 8
     batch = PlatformBatch(PlatformConfig(), nsim=K, nthread=2, payload_xml=PAYLOAD)
     masses = np.linspace(0.5, 4.0, K)
-    batch.batch.body("payload").mass = masses[:, None]  # per-test payload mass (kg)
+    body = batch.batch.body("payload")
+    body.mass = masses[:, None]  # per-test payload mass (kg)
+    # the inertia scales with the mass (compiled for 1 kg), else the dynamics stay those of 1 kg
+    body.inertia = batch.model.body("payload").inertia[None, :] * masses[:, None]
     batch.reset(set_const=True)  # derived constants, static equilibrium and FTS preload
     print("static FTS fz (N):", np.round(batch.wrench[:, 2], 4))
     print("expected m·g (N): ", np.round(masses * 9.81, 4))
