@@ -488,3 +488,13 @@ def test_settle_zero_reads_the_compensated_state():
     np.testing.assert_allclose(batch.leg_forces, np.tile(sim.leg_forces, (2, 1)), atol=1e-9)
     np.testing.assert_allclose(batch.interface_wrench, np.tile(sim.interface_wrench, (2, 1)),
                                atol=1e-9)
+
+
+def test_nan_command_is_a_safety_stop() -> None:
+    """A NaN pose command stops the platform with a SafetyStop naming the leg, not a crash."""
+    from rths3d.errors import SafetyStop
+    from rths3d.platform import PlatformConfig, PlatformSim
+
+    sim = PlatformSim(PlatformConfig())
+    with pytest.raises(SafetyStop, match="leg 0 commanded stroke"):
+        sim.step(0.0, 0.0, float("nan"), 0.0, 0.0, 0.0)

@@ -373,10 +373,11 @@ class PlatformSim:
         dt = self._dt
         for i, Li in enumerate(L):
             s = Li - self._home[i]
-            if abs(s) > self._smax:
+            # `not <=`: a NaN command (a diverged or broken source) stops like an overrun
+            if not abs(s) <= self._smax:
                 self._stop(f"leg {i} commanded stroke", s, self._smax, "m", ahead=1)
             v = (Li - self._Lprev[i]) / dt
-            if abs(v) > self._vmax:
+            if not abs(v) <= self._vmax:
                 self._stop(f"leg {i} commanded velocity", v, self._vmax, "m/s", ahead=1)
         raise AssertionError("unreachable: command check found no violation")  # pragma: no cover
 
