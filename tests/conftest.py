@@ -29,3 +29,26 @@ def rths_benchmark_dir(shared_dir: Path) -> Path:
     if not (path / "data").is_dir():
         pytest.skip(f"RTHS benchmark data not found at {path}")
     return path
+
+
+def _peak_bytes(f, n: int = 10) -> int:
+    """Peak memory traced (numpy's arrays included) over n calls of f after a warm-up."""
+    import tracemalloc
+
+    for _ in range(3):
+        f()
+    tracemalloc.start()
+    try:
+        tracemalloc.reset_peak()
+        base = tracemalloc.get_traced_memory()[0]
+        for _ in range(n):
+            f()
+        return tracemalloc.get_traced_memory()[1] - base
+    finally:
+        tracemalloc.stop()
+
+
+@pytest.fixture
+def peak_bytes():
+    """``peak_bytes(f, n=10)``: bytes allocated at peak by n calls of f (hot-path checks)."""
+    return _peak_bytes

@@ -550,26 +550,11 @@ def test_malformed_excitation_csv_is_a_config_error(tmp_path, text):
     assert err.value.field == "excitation.file"
 
 
-def test_batched_step_parts_allocate_no_arrays():
+def test_batched_step_parts_allocate_no_arrays(peak_bytes):
     """One step of the batched numerical substructure (shared and per-test matrices) and of
     the numpy part allocates no array (< 4 kB traced; a (K, 2) array is 32 kB)."""
-    import tracemalloc
-
     from rths3d.loop import build_numerical, scene_with
     from rths3d.transfer import build_transfer
-
-    def peak(f):
-        for _ in range(3):
-            f()
-        tracemalloc.start()
-        try:
-            tracemalloc.reset_peak()
-            base = tracemalloc.get_traced_memory()[0]
-            for _ in range(10):
-                f()
-            return tracemalloc.get_traced_memory()[1] - base
-        finally:
-            tracemalloc.stop()
 
     K = 2000
     sc = load_scene(SCENES / "paper_contact.toml", ["duration=0.5", "experiment.d=1.0"])
@@ -577,9 +562,9 @@ def test_batched_step_parts_allocate_no_arrays():
     z0, z1 = np.full((K, 1), 4e-3), np.full((K, 1), 6e-3)  # in contact (h0 = 5 mm)
     for scenes in ([sc] * K, [scene_with(sc, {"numerical.k": 5e3 + i}) for i in range(K)]):
         num = build_numerical(scenes)
-        assert peak(lambda n=num: n.step(3, f)) < 4096
+        assert peak_bytes(lambda n=num: n.step(3, f)) < 4096
     spec = build_transfer(sc, K).specimen
-    assert peak(lambda: spec.advance(z0, z1)) < 4096
+    assert peak_bytes(lambda: spec.advance(z0, z1)) < 4096
 
 
 def test_noisy_tests_of_different_seeds_step_together() -> None:

@@ -201,24 +201,7 @@ def test_predicted_delay_of_a_model_with_feedthrough():
     assert pred == pytest.approx(1 / 400 - 0.0005, abs=1e-8)
 
 
-def _peak_bytes(f, n: int = 10) -> int:
-    """Peak memory traced (numpy's arrays included) over n calls of f after a warm-up."""
-    import tracemalloc
-
-    for _ in range(3):
-        f()
-    tracemalloc.start()
-    try:
-        tracemalloc.reset_peak()
-        base = tracemalloc.get_traced_memory()[0]
-        for _ in range(n):
-            f()
-        return tracemalloc.get_traced_memory()[1] - base
-    finally:
-        tracemalloc.stop()
-
-
-def test_actuator_steps_allocate_no_arrays():
+def test_actuator_steps_allocate_no_arrays(peak_bytes):
     """One step of the delay lines, LTI actuators and polynomial compensation of K = 2000
     channels allocates no array (< 4 kB traced, a (K,) float array is 16 kB)."""
     K = 2000
@@ -230,6 +213,6 @@ def test_actuator_steps_allocate_no_arrays():
              PerTestLTIActuator(K, 1, [([1.0, 30.0], [1.0, 50.0]), ([900.0], [1.0, 30.0, 900.0])]
                                 * (K // 2), 1e-3)]
     for part in parts:
-        assert _peak_bytes(lambda p=part: p(u)) < 4096, type(part).__name__
+        assert peak_bytes(lambda p=part: p(u)) < 4096, type(part).__name__
     comp = Compensator(K, 1, "polynomial", 0.003, 1e-3, 3)
-    assert _peak_bytes(lambda: comp(u, u)) < 4096
+    assert peak_bytes(lambda: comp(u, u)) < 4096
