@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import json
+import math
+from typing import Any
+
 import typer
 
 app = typer.Typer(
@@ -23,3 +27,19 @@ app = typer.Typer(
 def _root() -> None:
     """rths3d: virtual real-time hybrid substructure testing on a MuJoCo Stewart platform."""
 
+
+
+def _finite(o: Any) -> Any:
+    if isinstance(o, float) and not math.isfinite(o):
+        return None
+    if isinstance(o, dict):
+        return {k: _finite(v) for k, v in o.items()}
+    if isinstance(o, list | tuple):
+        return [_finite(v) for v in o]
+    return o
+
+
+def json_line(obj: Any, **kw: Any) -> str:
+    """``obj`` as one line of valid JSON: non-finite floats (NaN from constant data, a
+    prediction from NaN inputs) become null, since a bare NaN breaks standard readers."""
+    return json.dumps(_finite(obj), allow_nan=False, **kw)

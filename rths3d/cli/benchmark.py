@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from typing import Any
 
 import typer
 
-from ._app import app
+from ._app import app, json_line
 
 bench_app = typer.Typer(help="Community benchmarks reproduced with rths3d.", no_args_is_help=True)
 app.add_typer(bench_app, name="benchmark")
@@ -132,7 +131,7 @@ def rths(
             out["plot_trials"] = str(plot_trials(
                 trial_rows, trials_path, PUBLISHED_TABLE3 if published_applies else None))
     if as_json:
-        typer.echo(json.dumps(_finite(out), allow_nan=False))
+        typer.echo(json_line(out))
         return
     head = "case  row        " + "".join(k.rjust(7) for k in J_KEYS)
     typer.echo(f"RTHS benchmark: {base.excitation} × {intensity}, noise "
@@ -168,17 +167,6 @@ def rths(
     if not published_applies:
         typer.echo("(the paper publishes Table 3 only for El Centro × 0.4, nominal plant, "
                    "noise on)")
-
-
-def _finite(o: Any) -> Any:
-    """``o`` with every non-finite float replaced by None (JSON null)."""
-    if isinstance(o, float) and not math.isfinite(o):
-        return None
-    if isinstance(o, dict):
-        return {k: _finite(v) for k, v in o.items()}
-    if isinstance(o, list | tuple):
-        return [_finite(v) for v in o]
-    return o
 
 
 def _overrides_only(items: list[str]) -> dict:

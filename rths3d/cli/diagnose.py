@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._app import app
+from ._app import app, json_line
 
 
 @app.command()
@@ -30,7 +30,6 @@ def diagnose(
     top_k: int = typer.Option(5, "--top-k", min=1, help="Candidates refitted per round."),
 ) -> None:
     """Compare a measurement with the bench model, rank the missing physical effects."""
-    import json
     import math
 
     from ..diagnose import Diagnosis, load_measurement
@@ -70,16 +69,7 @@ def diagnose(
         loc = localisation(diag)
         payload["localisation"] = {"fei": loc["fei"], "contact": loc["contact"]}
 
-        def clean(o):
-            if isinstance(o, float) and not math.isfinite(o):
-                return None
-            if isinstance(o, dict):
-                return {k: clean(v) for k, v in o.items()}
-            if isinstance(o, list | tuple):
-                return [clean(v) for v in o]
-            return o
-
-        typer.echo(json.dumps(clean(payload)))
+        typer.echo(json_line(payload))
         return
     from rich.console import Console
     from rich.table import Table

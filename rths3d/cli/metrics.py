@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._app import app
+from ._app import app, json_line
 
 # measure key → (symbol, unit) for the readable table
 _LABELS: dict[str, tuple[str, str]] = {
@@ -31,17 +31,6 @@ for _i in range(2, 10):
     _LABELS[f"j{_i}"] = (f"J{_i}", "%")
 
 
-def _clean(value):
-    """JSON-safe: non-finite floats become null."""
-    import math
-
-    if isinstance(value, dict):
-        return {k: _clean(v) for k, v in value.items()}
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
 @app.command()
 def metrics(
     record: Path = typer.Argument(..., help="Record file (.parquet or .csv; bare single-DOF "
@@ -53,7 +42,6 @@ def metrics(
 ) -> None:
     """Compute every accuracy measure of a RECORD (tracking, SSP, FEI, energy, reference,
     susceptibility, J1–J9 where their inputs exist)."""
-    import json
 
     from ..metrics import compute_measures
     from ..record import Record
@@ -66,7 +54,7 @@ def metrics(
 
         paths = plot_record(rec, plot)
     if as_json:
-        typer.echo(json.dumps(_clean(result)))
+        typer.echo(json_line(result))
         return
     _table(rec, result, record)
     for p in paths:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import json
 import math
 import signal
 import threading
@@ -12,7 +11,7 @@ from pathlib import Path
 import typer
 
 from ..figures import new_figure, save_figure
-from ._app import app
+from ._app import app, json_line
 
 
 def _plot(record, path: Path) -> Path:
@@ -154,7 +153,7 @@ def run(
         "omega_dyn_max": res.record.meta.get("omega_dyn_max"),
     }
     if json_:
-        typer.echo(json.dumps(summary))
+        typer.echo(json_line(summary))
         return
     typer.echo(f"{sc.name} with transfer '{summary['transfer']}': {res.status}"
                + (f" — {res.reason}" if res.reason else ""))

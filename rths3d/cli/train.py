@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import json
-import math
 import os
 from pathlib import Path
 
 import typer
 
-from ._app import app
+from ._app import app, json_line
 
 
 def _med_worst(values: list[float]) -> dict[str, float]:
@@ -18,21 +16,6 @@ def _med_worst(values: list[float]) -> dict[str, float]:
     v = np.asarray(values, dtype=float)
     return {"median": float(np.median(v)), "worst": float(np.min(v))}
 
-
-def _json_line(res: dict) -> str:
-    """``res`` as one JSON line, NaN/inf as null: bare NaN (a prediction from NaN inputs, ρ of
-    constant data) is not JSON and breaks the reader."""
-
-    def clean(v):
-        if isinstance(v, float) and not math.isfinite(v):
-            return None
-        if isinstance(v, dict):
-            return {k: clean(x) for k, x in v.items()}
-        if isinstance(v, list | tuple):
-            return [clean(x) for x in v]
-        return v
-
-    return json.dumps(clean(res), allow_nan=False)
 
 
 def _check_writable(path: Path, field: str) -> None:
@@ -123,7 +106,7 @@ def train(
             raise ConfigError("--plot", str(plot),
                               f"cannot write the plot: {exc.strerror or exc}") from exc
     if as_json:
-        typer.echo(_json_line(res))
+        typer.echo(json_line(res))
     else:
         typer.echo(f"topology {'x'.join(map(str, res['topology']))}  "
                    f"ρ train {res['r_train']:.4f}  val {res['r_val']:.4f}  "
@@ -216,7 +199,7 @@ def predict(
             res["mse"] = float(np.mean((mean[ok] - t[ok]) ** 2))
             res["n_scored"] = int(ok.sum())
     if as_json:
-        typer.echo(_json_line(res))
+        typer.echo(json_line(res))
         return
     for w in extrap:
         typer.echo(f"warning: {w}", err=True)
