@@ -202,8 +202,9 @@ def test_predicted_delay_of_a_model_with_feedthrough():
 
 
 def test_actuator_steps_allocate_no_arrays(peak_bytes):
-    """One step of the delay lines, LTI actuators and polynomial compensation of K = 2000
-    channels allocates no array (< 4 kB traced, a (K,) float array is 16 kB)."""
+    """One step of the delay lines, LTI actuators, polynomial compensation and noisy, lagged,
+    delayed sensors of K = 2000 channels allocates no array (< 4 kB traced, a (K,) float
+    array is 16 kB)."""
     K = 2000
     u = np.linspace(0.0, 1e-3, K).reshape(K, 1)
     parts = [DelayLine(K, 1, 0.0025, 1e-3),
@@ -211,7 +212,10 @@ def test_actuator_steps_allocate_no_arrays(peak_bytes):
              LTIActuator(K, 1, [1.0, 30.0], [1.0, 30.0, 900.0], 1e-3),
              LTIActuator(K, 1, [1.0, 30.0], [1.0, 50.0], 1e-3),
              PerTestLTIActuator(K, 1, [([1.0, 30.0], [1.0, 50.0]), ([900.0], [1.0, 30.0, 900.0])]
-                                * (K // 2), 1e-3)]
+                                * (K // 2), 1e-3),
+             SensorModel(K, 1, 1e-3, "first_order", 0.004, 0.5, 1.1, 0.1, 0.002, seed=7),
+             SensorModel(K, 1, 1e-3, "first_order", 0.004, 0.5, 1.1, 0.1, 0.0,
+                         seed=list(range(K)))]
     for part in parts:
         assert peak_bytes(lambda p=part: p(u)) < 4096, type(part).__name__
     comp = Compensator(K, 1, "polynomial", 0.003, 1e-3, 3)

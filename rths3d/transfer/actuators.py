@@ -403,6 +403,12 @@ class SensorModel:
         self.rng = self._generators()
         self.state = np.zeros((K, n))
         self.out = np.zeros((K, n))
+        # step buffers (no allocation per step): the lag's increment, the noise draw and its
+        # per-test rows, the gained signal ahead of the delay
+        self._inc = np.zeros((K, n))
+        self._noise = np.zeros((K, n))
+        self._noise_rows = list(self._noise)
+        self._pre = np.zeros((K, n)) if delay > 0 else self.out
         self.delay = DelayLine(K, n, delay, dt) if delay > 0 else None
 
     def reset(self) -> None:
@@ -420,17 +426,22 @@ class SensorModel:
         if self.ideal:
             return f
         if self.alpha < 1.0:
-            self.state += self.alpha * (f - self.state)
+            np.subtract(f, self.state, out=self._inc)
+            self._inc *= self.alpha
+            self.state += self._inc
         else:
             self.state[:] = f
-        out = self.gain * self.state + self.offset
+        out = self._pre
+        np.multiply(self.state, self.gain, out=out)
+        out += self.offset
         if self.noise_std:
             if isinstance(self.rng, list):
-                out += self.noise_std * np.stack([g.standard_normal(out.shape[1:])
-                                                  for g in self.rng])
+                for g, row in zip(self.rng, self._noise_rows, strict=True):
+                    g.standard_normal(out=row)
             else:
-                out += self.noise_std * self.rng.standard_normal(out.shape)
+                self.rng.standard_normal(out=self._noise)
+            self._noise *= self.noise_std
+            out += self._noise
         if self.delay is not None:
-            out = self.delay(out)
-        self.out[:] = out
+            self.out[:] = self.delay(out)
         return self.out
