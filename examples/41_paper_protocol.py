@@ -9,8 +9,9 @@
 
 Usage: ``python examples/41_paper_protocol.py [--out DIR] [--workers N] [--quick]
 [--trainings N] [--transform linear|log]
-[--contact paper280_lti|contact1400_lti|table1_lti|table1_lti_large]
-[--families families_large|families_wide|families|none] [--splits N] [--topologies 10x10;20x20]
+[--contact paper280_lti|contact1400_lti|table1_lti|table1_lti_paper|table1_lti_large]
+[--families families_xl|families_xl+families_xl_more|families_large|families_wide|families|none]
+[--splits N] [--topologies 10x10;20x20]
 [--no-bypass] [--sets 1,2,3] [--extra experiment.h0,excitation.frequency]``.
 Sweeps are resumable: re-running reuses finished tests in DIR.
 """
@@ -59,12 +60,14 @@ def main() -> None:
                     help="linear: the paper's [-1, 1] map; log: compress heavy tails first")
     ap.add_argument("--contact", default="paper280_lti",
                     help="training sweep of contact tests (paper280_lti, contact1400_lti, "
-                         "table1_lti or table1_lti_large)")
+                         "table1_lti, table1_lti_paper or table1_lti_large)")
     ap.add_argument("--families", default="families_large",
-                    help="multi-family sweep for leave-one-family-out training "
-                         "(families_large: six kinds, 4240 tests, servo settings drawn; "
-                         "families_wide: six kinds, 1720 tests; families: four; none: skip "
-                         "the leave-one-family-out rows)")
+                    help="multi-family sweep for leave-one-family-out training; '+' joins "
+                         "sweeps into one table (families_xl: six kinds, 16480 tests; "
+                         "families_xl+families_xl_more: four times its training families; "
+                         "families_large: a quarter of families_xl; families_wide: six kinds, "
+                         "1720 tests; families: four; none: skip the leave-one-family-out "
+                         "rows)")
     ap.add_argument("--topologies", default=None,
                     help="candidate hidden layers, e.g. '10x10;20x20' (default: the "
                          "estimator's 2;5;10;20;5x5;10x10); larger nets for the full grid")
@@ -95,8 +98,12 @@ def main() -> None:
     lti = sweep(args.contact, out, args.workers, args.quick)
     stewart = sweep("paper280_stewart", out, args.workers, args.quick)
     linear = sweep("table2_linear", out, args.workers, args.quick)
-    families = None if args.families == "none" else sweep(args.families, out, args.workers,
-                                                          args.quick)
+    families = None
+    if args.families != "none":
+        import pandas as pd
+
+        families = pd.concat([sweep(name.strip(), out, args.workers, args.quick)
+                              for name in args.families.split("+")], ignore_index=True)
 
     models: dict = {}
     rows = reproduce(lti, stewart, linear, families, left_out="linear",
