@@ -100,10 +100,10 @@ def main() -> None:
     linear = sweep("table2_linear", out, args.workers, args.quick)
     families = None
     if args.families != "none":
-        import pandas as pd
+        from rths3d.dataset import join_tables
 
-        families = pd.concat([sweep(name.strip(), out, args.workers, args.quick)
-                              for name in args.families.split("+")], ignore_index=True)
+        families = join_tables([sweep(name.strip(), out, args.workers, args.quick)
+                                for name in args.families.split("+")])
 
     models: dict = {}
     rows = reproduce(lti, stewart, linear, families, left_out="linear",

@@ -231,3 +231,22 @@ def test_predict_reads_numerical_k_from_a_1dof_record(table, record, tmp_path) -
     b = run("predict", str(model), str(two))
     assert b.returncode == 2 and "Traceback" not in b.stderr
     assert "numerical.k" in b.stderr and "not a scalar" in b.stderr
+
+
+def test_train_on_several_tables_equals_the_joined_table(table, tmp_path) -> None:
+    """train A B trains on A and B joined: the same model as on one table holding both, with
+    a test given in both tables kept once (and said so)."""
+    whole = pd.read_parquet(table)
+    a, b = tmp_path / "a.parquet", tmp_path / "b.csv"
+    whole.iloc[:100].to_parquet(a)
+    whole.iloc[90:].to_csv(b, index=False)  # rows 90-99 in both tables
+    common = ("--features", "3", "--json", "--topologies", "3", "--trainings", "1",
+              "--transform", "linear")
+    p1 = run("train", str(table), "--out", str(tmp_path / "one.json"), *common)
+    p2 = run("train", str(a), str(b), "--out", str(tmp_path / "two.json"), *common)
+    assert p1.returncode == 0 and p2.returncode == 0, p2.stderr
+    assert "10 tests appear in more than one table" in p2.stderr
+    r1, r2 = (json.loads(p.stdout.strip().splitlines()[-1]) for p in (p1, p2))
+    assert r2["n_samples"] == r1["n_samples"] == 158
+    assert r2["r_test"] == pytest.approx(r1["r_test"], rel=1e-9)
+    assert r2["mse"] == pytest.approx(r1["mse"], rel=1e-9)

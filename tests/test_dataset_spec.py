@@ -331,3 +331,24 @@ def test_store_bad_folder_and_corrupt_manifest_are_config_errors(tmp_path) -> No
     (tmp_path / "d" / "manifest.json").write_text("{bad")
     with pytest.raises(ConfigError, match="unreadable manifest"):
         SweepStore(tmp_path / "d", "s", "abc", 2, 4).open()
+
+
+def test_join_tables_unites_columns_and_keeps_each_test_once() -> None:
+    """join_tables stacks rows, fills a column one sweep lacks with NaN and drops a test
+    given twice, with a warning; no rows at all is a ConfigError."""
+    import warnings
+
+    import numpy as np
+
+    from rths3d.dataset import join_tables
+
+    a = pd.DataFrame({"test_id": ["x", "y"], "param.k": [1.0, 2.0]})
+    b = pd.DataFrame({"test_id": ["y", "z"], "param.k": [2.0, 3.0], "param.m": [5.0, 6.0]})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        j = join_tables([a, b])
+    assert list(j["test_id"]) == ["x", "y", "z"]
+    assert np.isnan(j["param.m"][0]) and j["param.m"][2] == 6.0
+    assert any("1 tests appear in more than one table" in str(w.message) for w in caught)
+    with pytest.raises(ConfigError):
+        join_tables([])

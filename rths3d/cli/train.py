@@ -36,7 +36,10 @@ def _check_writable(path: Path, field: str) -> None:
 
 @app.command()
 def train(
-    table: Path = typer.Argument(..., help="Sweep table (.parquet/.csv) or sweep output folder."),
+    tables: list[Path] = typer.Argument(..., metavar="table",
+                                        help="Sweep table (.parquet/.csv) or sweep output "
+                                             "folder; several are joined into one data set "
+                                             "(a test in two of them is kept once)."),
     features: int = typer.Option(..., "--features", help="Table-3 feature set: 1, 2 or 3."),
     out: Path = typer.Option(..., "--out", help="Model file to write (.json)."),
     as_json: bool = typer.Option(False, "--json", help="Print the scores as one JSON line."),
@@ -64,15 +67,21 @@ def train(
 
     Prints ρ (paper eq. 15) on the training, validation and test sets and the MSE.
     """
+    import warnings
+
     from ..ann import FidelityANN, parse_topologies
-    from ..dataset.store import read_table
+    from ..dataset.store import join_tables, read_table
     from ..dataset.table import PARAM, training_data
     from ..errors import ConfigError
 
     _check_writable(out, "--out")
     if plot:
         _check_writable(plot, "--plot")
-    frame = read_table(table)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UserWarning)
+        frame = join_tables([read_table(t) for t in tables])
+    for w in caught:
+        typer.echo(f"note: {w.message}", err=True)
     X, y, _rows = training_data(frame, features, target, family or None, exclude or None,
                                 extra=extra or ())
     if len(y) < 10:

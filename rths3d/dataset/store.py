@@ -166,3 +166,30 @@ def read_table(path: str | os.PathLike):
         return pd.read_parquet(path)
     except Exception as exc:  # unreadable: name the file and the reason
         raise ConfigError("table", str(path), f"not a readable table: {exc}") from exc
+
+
+def join_tables(frames: Sequence[Any]):
+    """One table of several sweep tables (rows stacked, columns united).
+
+    A test that appears in more than one table (the same ``test_id``: the same family and
+    parameters, hence the same deterministic result) is kept once, so that it cannot sit in
+    the training and the test set at once; a ``UserWarning`` says how many were dropped.
+    Parameter columns one sweep does not have are NaN in its rows.
+    """
+    import warnings
+
+    import pandas as pd
+
+    frames = [f for f in frames if f is not None and len(f)]
+    if not frames:
+        raise ConfigError("table", "no rows", "at least one table with tests")
+    if len(frames) == 1:
+        return frames[0]
+    frame = _text_if_mixed(pd.concat(frames, ignore_index=True, sort=False))
+    if "test_id" in frame.columns:
+        dup = frame["test_id"].duplicated()
+        if dup.any():
+            warnings.warn(f"{int(dup.sum())} tests appear in more than one table; each is "
+                          "kept once", UserWarning, stacklevel=2)
+            frame = frame[~dup].reset_index(drop=True)
+    return frame
