@@ -37,7 +37,7 @@ def main() -> None:
 
     from rths3d.ann import learning_curve, parse_topologies
     from rths3d.ann.plots import save_learning_curve
-    from rths3d.dataset import read_table, training_data
+    from rths3d.dataset import join_tables, read_table, training_data
     from rths3d.errors import ConfigError
 
     topologies = parse_topologies(args.topologies)
@@ -47,11 +47,8 @@ def main() -> None:
     except ValueError:
         raise ConfigError("--features/--sizes", f"{args.features} / {args.sizes}",
                           "comma-separated integers") from None
-    import pandas as pd
-
-    frame = pd.concat([read_table(t) for t in args.tables], ignore_index=True)
-    # the same parameter point in two tables is the same test: count it once
-    frame = frame.drop_duplicates("test_id")
+    # the same parameter point in two tables is the same test: join_tables counts it once
+    frame = join_tables([read_table(t) for t in args.tables])
     curves, rows = {}, []
     for fs in sets:
         X, y, _ = training_data(frame, fs)

@@ -17,7 +17,8 @@ def _run(tmp_path: Path, script: str, *args: str) -> subprocess.CompletedProcess
 
 
 @pytest.mark.parametrize("script", ["12_platform_batch.py", "30_metrics_from_record.py",
-                                    "60_find_missing_effect.py", "70_rths_benchmark.py"])
+                                    "44_leave_one_family_out.py", "60_find_missing_effect.py",
+                                    "70_rths_benchmark.py"])
 def test_help_prints_usage_without_running(tmp_path, script):
     """`--help` prints the usage and exits 0 without running or writing anything."""
     out = _run(tmp_path, script, "--help")
@@ -46,3 +47,40 @@ def test_usage_docstrings_list_every_option():
     doc42 = (EXAMPLES / "42_learning_curve.py").read_text().split('"""')[1]
     assert "[--trainings N]" in doc41 and "table1_lti_large" in doc41
     assert "[--test N]" in doc42
+
+
+def _two_family_table(path: Path) -> Path:
+    """Two families sharing one smooth law target = f(features) (the rest noise)."""
+    import numpy as np
+    import pandas as pd
+
+    from rths3d.dataset.table import FEATURE_SETS
+
+    rng = np.random.default_rng(1)
+    n = 240
+    data = {f"feature.{k}": rng.uniform(0.1, 1.0, n) for k in FEATURE_SETS[1]}
+    data["target.e_rel_ref"] = (0.05 + 0.1 * data["feature.e_rel_track"] ** 2
+                                + 0.05 * data["feature.fei_d"])
+    data["test_id"] = [f"t{i}" for i in range(n)]
+    data["family"] = ["a", "b"] * (n // 2)
+    data["status"] = "ok"
+    pd.DataFrame(data).to_parquet(path)
+    return path
+
+
+def test_leave_one_family_out_scores_each_family(tmp_path):
+    """44 leaves each family out in turn, scores it on all its tests and writes the table,
+    the JSON summary and a plot per family; an unknown family is one error line."""
+    import json
+
+    table = _two_family_table(tmp_path / "fam.parquet")
+    out = _run(tmp_path, "44_leave_one_family_out.py", str(table), "--features", "3",
+               "--topologies", "4", "--trainings", "2", "--out", "lofo")
+    assert out.returncode == 0, out.stderr
+    summary = json.loads((tmp_path / "lofo" / "lofo.json").read_text())
+    assert [s["left_out"] for s in summary] == ["a", "b"]
+    assert all(s["n_left_out"] == 120 and s["r_left_out_median"] > 0.95 for s in summary)
+    assert {p.name for p in (tmp_path / "lofo").glob("*.png")} == {"lofo_a_set3.png",
+                                                                  "lofo_b_set3.png"}
+    bad = _run(tmp_path, "44_leave_one_family_out.py", str(table), "--families", "c")
+    assert bad.returncode == 2 and bad.stderr.startswith("error: --families: 'c'"), bad.stderr
