@@ -19,9 +19,12 @@ import json
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import ConfigError
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 TABLE_META_KEY = b"rths3d_sweep"
 
@@ -148,7 +151,7 @@ class SweepStore:
         return frame
 
 
-def read_table(path: str | os.PathLike):
+def read_table(path: str | os.PathLike) -> pd.DataFrame:
     """Read a sweep table (Parquet or CSV) as a DataFrame; ConfigError if unreadable."""
     import pandas as pd
 
@@ -168,12 +171,12 @@ def read_table(path: str | os.PathLike):
         raise ConfigError("table", str(path), f"not a readable table: {exc}") from exc
 
 
-def join_tables(frames: Sequence[Any]):
+def join_tables(frames: Sequence[pd.DataFrame]) -> pd.DataFrame:
     """One table of several sweep tables (rows stacked, columns united).
 
     A test that appears in more than one table (the same ``test_id``: the same family and
-    parameters, hence the same deterministic result) is kept once, so that it cannot sit in
-    the training and the test set at once; a ``UserWarning`` says how many were dropped.
+    parameters) is kept once, its first row, so that it cannot sit in the training and the
+    test set at once; a ``UserWarning`` says how many were dropped.
     Parameter columns one sweep does not have are NaN in its rows.
     """
     import warnings
