@@ -37,19 +37,6 @@ def sweep(name: str, out: Path, workers: int | None, quick: bool):
     return run_sweep(spec, out / spec.name, workers=workers, progress=True)
 
 
-def parse_sets(text: str) -> tuple[int, ...]:
-    """'1,3' → (1, 3): feature sets of Table 3, each once, in order."""
-    from rths3d.errors import ConfigError
-
-    try:
-        sets = tuple(sorted({int(v) for v in text.split(",") if v.strip()}))
-    except ValueError:
-        raise ConfigError("--sets", text, "comma-separated feature sets 1, 2, 3") from None
-    if not sets or not set(sets) <= {1, 2, 3}:
-        raise ConfigError("--sets", text, "comma-separated feature sets 1, 2, 3")
-    return sets
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path("protocol_out"))
@@ -87,9 +74,10 @@ def main() -> None:
     from rths3d.ann import parse_topologies
     from rths3d.ann.plots import save_figures
     from rths3d.ann.protocol import PAPER_TABLE4, reproduce, rows_to_markdown
+    from rths3d.dataset import parse_feature_sets
 
     topologies = parse_topologies(args.topologies)  # before the sweeps: fail fast
-    sets = parse_sets(args.sets)
+    sets = tuple(sorted(parse_feature_sets(args.sets, "--sets")))
     extra = tuple(e.strip() for e in args.extra.split(",") if e.strip())
     fs = 2 if 2 in sets else sets[0]  # the set drawn in the figures
 

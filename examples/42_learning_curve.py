@@ -37,16 +37,15 @@ def main() -> None:
 
     from rths3d.ann import learning_curve, parse_topologies
     from rths3d.ann.plots import save_learning_curve
-    from rths3d.dataset import join_tables, read_table, training_data
+    from rths3d.dataset import join_tables, parse_feature_sets, read_table, training_data
     from rths3d.errors import ConfigError
 
     topologies = parse_topologies(args.topologies)
+    sets = parse_feature_sets(args.features)
     try:
-        sets = [int(s) for s in args.features.split(",")]
         sizes = [int(s) for s in args.sizes.split(",")]
     except ValueError:
-        raise ConfigError("--features/--sizes", f"{args.features} / {args.sizes}",
-                          "comma-separated integers") from None
+        raise ConfigError("--sizes", args.sizes, "comma-separated integers") from None
     # the same parameter point in two tables is the same test: join_tables counts it once
     frame = join_tables([read_table(t) for t in args.tables])
     curves, rows = {}, []

@@ -45,16 +45,12 @@ def main() -> None:
 
     from rths3d.ann.estimator import Compress
     from rths3d.ann.scores import pearson_rho
-    from rths3d.dataset import read_table, training_data
+    from rths3d.dataset import parse_feature_sets, read_table, training_data
 
     try:
         if not 0.0 < args.test <= 0.5:
             raise ConfigError("--test", args.test, "must lie in (0, 0.5]")
-        try:
-            sets = [int(s) for s in args.features.split(",")]
-        except ValueError:
-            raise ConfigError("--features", args.features,
-                              "comma-separated integers") from None
+        sets = parse_feature_sets(args.features)
         groups = [tuple(n.strip() for n in g.split(",") if n.strip())
                   for g in args.extra.split(";") if g.strip()]
         frame = read_table(args.table)

@@ -43,16 +43,11 @@ def main() -> None:
     from rths3d.ann import parse_topologies
     from rths3d.ann.plots import save_figures
     from rths3d.ann.protocol import apply_and_score, fit_and_score_splits, rows_to_markdown
-    from rths3d.dataset import join_tables, read_table, training_data
+    from rths3d.dataset import join_tables, parse_feature_sets, read_table, training_data
     from rths3d.errors import ConfigError
 
     topologies = parse_topologies(args.topologies)
-    try:
-        sets = [int(s) for s in args.features.split(",")]
-    except ValueError:
-        raise ConfigError("--features", args.features, "comma-separated sets 1, 2, 3") from None
-    if not sets or not set(sets) <= {1, 2, 3}:
-        raise ConfigError("--features", args.features, "comma-separated sets 1, 2, 3")
+    sets = parse_feature_sets(args.features)
     if args.splits < 1 or args.trainings < 1:
         raise ConfigError("--splits/--trainings", f"{args.splits} / {args.trainings}", ">= 1")
     frame = join_tables([read_table(t) for t in args.tables])

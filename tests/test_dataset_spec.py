@@ -352,3 +352,14 @@ def test_join_tables_unites_columns_and_keeps_each_test_once() -> None:
     assert any("1 tests appear in more than one table" in str(w.message) for w in caught)
     with pytest.raises(ConfigError):
         join_tables([])
+
+
+def test_parse_feature_sets_keeps_order_and_names_the_option() -> None:
+    """'3,1,3' → (3, 1); an empty, unknown or non-integer set is a ConfigError naming the
+    option."""
+    from rths3d.dataset import parse_feature_sets
+
+    assert parse_feature_sets("3,1,3") == (3, 1)
+    for bad in ("", "4", "1,x"):
+        with pytest.raises(ConfigError, match="--sets: .*feature sets 1, 2, 3"):
+            parse_feature_sets(bad, "--sets")

@@ -31,6 +31,8 @@ def test_help_prints_usage_without_running(tmp_path, script):
     ("20_contact_test.py", ["--duration", "-1"], "duration: -1.0"),
     ("30_metrics_from_record.py", ["c.parquet"], "OUT_DIR: 'c.parquet'"),
     ("51_replay.py", ["missing.parquet"], "missing.parquet"),
+    ("42_learning_curve.py", ["c.parquet", "--features", "4"], "--features: '4'"),
+    ("44_leave_one_family_out.py", ["c.parquet", "--features", "1,x"], "--features: '1,x'"),
 ])
 def test_bad_arguments_give_one_line_and_exit_2(tmp_path, script, args, needle):
     """A user mistake in an example's arguments prints one `error:` line, no traceback."""

@@ -492,9 +492,6 @@ def test_settle_zero_reads_the_compensated_state():
 
 def test_nan_command_is_a_safety_stop() -> None:
     """A NaN pose command stops the platform with a SafetyStop naming the leg, not a crash."""
-    from rths3d.errors import SafetyStop
-    from rths3d.platform import PlatformConfig, PlatformSim
-
     sim = PlatformSim(PlatformConfig())
     with pytest.raises(SafetyStop, match="leg 0 commanded stroke"):
         sim.step(0.0, 0.0, float("nan"), 0.0, 0.0, 0.0)

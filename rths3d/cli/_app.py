@@ -28,8 +28,8 @@ def _root() -> None:
     """rths3d: virtual real-time hybrid substructure testing on a MuJoCo Stewart platform."""
 
 
-
 def _finite(o: Any) -> Any:
+    """``o`` with every non-finite float replaced by None (JSON null)."""
     if isinstance(o, float) and not math.isfinite(o):
         return None
     if isinstance(o, dict):

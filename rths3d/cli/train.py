@@ -17,7 +17,6 @@ def _med_worst(values: list[float]) -> dict[str, float]:
     return {"median": float(np.median(v)), "worst": float(np.min(v))}
 
 
-
 def _check_writable(path: Path, field: str) -> None:
     """Fail before the training (minutes to hours) instead of after it on a target that
     cannot be written. Missing folders are fine: they are created when writing."""

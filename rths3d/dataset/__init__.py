@@ -7,8 +7,8 @@
 from .execute import batches_of, run_sweep
 from .spec import Family, SweepSpec, enumerate_tests, load_spec, parse_spec
 from .store import join_tables, read_table
-from .table import FEATURE_SETS, feature_names, training_data
+from .table import FEATURE_SETS, feature_names, parse_feature_sets, training_data
 
 __all__ = ["FEATURE_SETS", "Family", "SweepSpec", "batches_of", "enumerate_tests",
-           "feature_names", "join_tables", "load_spec", "parse_spec", "read_table", "run_sweep",
-           "training_data"]
+           "feature_names", "join_tables", "load_spec", "parse_feature_sets", "parse_spec",
+           "read_table", "run_sweep", "training_data"]

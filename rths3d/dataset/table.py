@@ -36,6 +36,18 @@ __all__ = ["DEFAULT_TARGET", "FEATURE", "FEATURE_SETS", "PARAM", "SET_1", "SET_2
            "param_column", "training_data"]
 
 
+def parse_feature_sets(text: str, field: str = "--features") -> tuple[int, ...]:
+    """``'1,3'`` → ``(1, 3)``: Table-3 feature sets, each once, in the order given; a
+    ConfigError naming ``field`` for anything else."""
+    try:
+        sets = tuple(dict.fromkeys(int(v) for v in text.split(",") if v.strip()))
+    except ValueError:
+        sets = ()
+    if not sets or not set(sets) <= set(FEATURE_SETS):
+        raise ConfigError(field, text, "comma-separated feature sets 1, 2, 3")
+    return sets
+
+
 def feature_names(feature_set: int) -> tuple[str, ...]:
     """Feature names of Table-3 set 1, 2 or 3 (an error names the ``features`` option)."""
     return _feature_names(feature_set, field="features")
