@@ -12,8 +12,11 @@ Usage: ``python examples/41_paper_protocol.py [--out DIR] [--workers N] [--quick
 [--contact paper280_lti|contact1400_lti|table1_lti|table1_lti_paper|table1_lti_large]
 [--families families_xl|families_xl+families_xl_more|families_large|families_wide|families|none]
 [--splits N] [--topologies 10x10;20x20]
-[--no-bypass] [--sets 1,2,3] [--extra experiment.h0,excitation.frequency]``.
-Sweeps are resumable: re-running reuses finished tests in DIR.
+[--no-bypass] [--sets 1,2,3] [--extra experiment.h0,excitation.frequency]
+[--ratings velocity=0.2,force=200]``.
+Sweeps are resumable: re-running reuses finished tests in DIR. ``--ratings`` keeps the tests a
+bench with those ratings (m, m/s, N) would have completed, as the paper chose its tests within
+its FTS range and its actuator's stroke and velocity.
 """
 
 from __future__ import annotations
@@ -69,14 +72,19 @@ def main() -> None:
                     help="test parameters added to every feature set as inputs, e.g. "
                          "'experiment.h0,excitation.frequency,excitation.overtravel' (the "
                          "loading the paper leaves out; Table-2 and family rows need them too)")
+    ap.add_argument("--ratings", default="",
+                    help="bench ratings every table is cut to, e.g. 'velocity=0.2,force=200' "
+                         "(m/s, N; also stroke in m): only tests whose peak command velocity, "
+                         "interface force and stroke stay within them are used")
     args = ap.parse_args()
 
     from rths3d.ann import parse_topologies
     from rths3d.ann.plots import save_figures
     from rths3d.ann.protocol import PAPER_TABLE4, reproduce, rows_to_markdown
-    from rths3d.dataset import parse_feature_sets
+    from rths3d.dataset import parse_feature_sets, parse_ratings, within_ratings
 
     topologies = parse_topologies(args.topologies)  # before the sweeps: fail fast
+    ratings = parse_ratings(args.ratings) if args.ratings.strip() else {}
     sets = tuple(sorted(parse_feature_sets(args.sets, "--sets")))
     extra = tuple(e.strip() for e in args.extra.split(",") if e.strip())
     fs = 2 if 2 in sets else sets[0]  # the set drawn in the figures
@@ -92,6 +100,10 @@ def main() -> None:
 
         families = join_tables([sweep(name.strip(), out, args.workers, args.quick)
                                 for name in args.families.split("+")])
+
+    if ratings:  # the tests this bench would have completed
+        lti, stewart, linear = (within_ratings(t, ratings) for t in (lti, stewart, linear))
+        families = None if families is None else within_ratings(families, ratings)
 
     models: dict = {}
     rows = reproduce(lti, stewart, linear, families, left_out="linear",
@@ -109,7 +121,9 @@ def main() -> None:
            + (f"_{args.splits}splits" if args.splits > 1 else "")
            + (f"_{args.topologies.replace(';', '-')}" if args.topologies else "")
            + ("" if sets == (1, 2, 3) else "_set" + "".join(map(str, sets)))
-           + ("_plus-" + "-".join(e.rsplit(".", 1)[-1] for e in extra) if extra else ""))
+           + ("_plus-" + "-".join(e.rsplit(".", 1)[-1] for e in extra) if extra else "")
+           + ("_ratings-" + "-".join(f"{k}{v:g}" for k, v in ratings.items()) if ratings
+              else ""))
     (out / f"table4_{tag}.md").write_text(table + "\n")
     (out / f"table4_{tag}.json").write_text(json.dumps([r.as_dict() for r in rows], indent=1))
 

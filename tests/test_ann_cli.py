@@ -250,3 +250,27 @@ def test_train_on_several_tables_equals_the_joined_table(table, tmp_path) -> Non
     assert r2["n_samples"] == r1["n_samples"] == 158
     assert r2["r_test"] == pytest.approx(r1["r_test"], rel=1e-9)
     assert r2["mse"] == pytest.approx(r1["mse"], rel=1e-9)
+
+
+def test_train_ratings_keep_the_tests_within_the_bench(table, tmp_path) -> None:
+    """--ratings velocity=V trains on the tests whose peak command velocity is ≤ V only (the
+    same model as on the table cut by hand); a bad rating is one line naming the option."""
+    whole = pd.read_parquet(table)
+    whole["measure.velocity_peak"] = np.linspace(0.01, 0.4, len(whole))  # m/s
+    full = tmp_path / "full.parquet"
+    whole.to_parquet(full)
+    cut = tmp_path / "cut.parquet"
+    whole[whole["measure.velocity_peak"] <= 0.3].to_parquet(cut)
+    common = ("--features", "3", "--json", "--topologies", "3", "--trainings", "1",
+              "--transform", "linear")
+    p1 = run("train", str(full), "--ratings", "velocity=0.3", "--out",
+             str(tmp_path / "a.json"), *common)
+    p2 = run("train", str(cut), "--out", str(tmp_path / "b.json"), *common)
+    assert p1.returncode == 0 and p2.returncode == 0, p1.stderr
+    r1, r2 = (json.loads(p.stdout.strip().splitlines()[-1]) for p in (p1, p2))
+    assert r1["n_samples"] == r2["n_samples"] < 158
+    assert r1["mse"] == pytest.approx(r2["mse"], rel=1e-9)
+    bad = run("train", str(full), "--ratings", "speed=1", "--out", str(tmp_path / "c.json"),
+              "--features", "3")
+    assert bad.returncode == 2 and "--ratings" in bad.stderr
+    assert "Traceback" not in bad.stderr and len(bad.stderr.strip().splitlines()) == 1

@@ -363,3 +363,28 @@ def test_parse_feature_sets_keeps_order_and_names_the_option() -> None:
     for bad in ("", "4", "1,x"):
         with pytest.raises(ConfigError, match="--sets: .*feature sets 1, 2, 3"):
             parse_feature_sets(bad, "--sets")
+
+
+def test_parse_ratings_names_the_option_and_the_limit() -> None:
+    """'velocity=0.2, force=200' → SI floats; an unknown name, a non-positive value or an
+    empty text is a ConfigError naming the option."""
+    from rths3d.dataset import parse_ratings
+
+    assert parse_ratings("velocity=0.2, force=200") == {"velocity": 0.2, "force": 200.0}
+    for bad, msg in (("speed=1", "--ratings: .*stroke, velocity, force"),
+                     ("velocity=-1", "--ratings velocity: .*> 0 \\(m/s\\)"),
+                     ("force=x", "--ratings force: .*> 0 \\(N\\)"),
+                     ("", "at least one")):
+        with pytest.raises(ConfigError, match=msg):
+            parse_ratings(bad)
+
+
+def test_within_ratings_refuses_a_table_without_bench_load() -> None:
+    """A table swept before the bench-load measures: the error says to sweep it again."""
+    import pandas as pd
+
+    from rths3d.dataset import within_ratings
+
+    old = pd.DataFrame({"test_id": ["a"], "status": ["ok"], "measure.f_eq": [1.0]})
+    with pytest.raises(ConfigError, match="measure.velocity_peak.*sweep it again"):
+        within_ratings(old, {"velocity": 0.1})

@@ -74,6 +74,25 @@ def test_table_has_parameters_features_targets_status(reference_table) -> None:
     assert np.corrcoef(d, e)[0, 1] > 0.5
 
 
+def test_bench_load_columns_and_ratings_cut(reference_table) -> None:
+    """The table carries each test's bench load (m, m/s, N) within the scene's own limits, and
+    within_ratings keeps exactly the rows at or below a rating."""
+    from rths3d.dataset import within_ratings
+    from rths3d.scene import load_scene
+
+    saf = load_scene("paper_contact").safety
+    f = reference_table
+    v = f["measure.velocity_peak"].to_numpy()
+    assert np.all((v > 0) & (v <= saf.velocity))
+    assert np.all(f["measure.stroke_peak"].to_numpy() <= saf.stroke)
+    assert np.all(f["measure.force_peak"].to_numpy() <= saf.force)
+    cut = float(np.median(v))
+    kept = within_ratings(f, {"velocity": cut})
+    assert set(kept["test_id"]) == set(f.loc[v <= cut, "test_id"]) and 0 < len(kept) < len(f)
+    both = within_ratings(f, {"velocity": cut, "force": float(f["measure.force_peak"].min())})
+    assert len(both) <= 1
+
+
 def test_table_rows_follow_the_spec_order_whatever_the_batches(tiny_spec, tmp_path) -> None:
     """Tests with different actuator delays share batches, tests with different LTI substeps do
     not; the batches then run out of the spec's order, and the table still follows it."""

@@ -53,6 +53,10 @@ def train(
                                     help="A test parameter as a further input, e.g. "
                                          "experiment.h0 (repeatable; beyond Table 3)."),
     target: str = typer.Option("e_rel_ref", "--target", help="Target column (`target.<name>`)."),
+    ratings: str = typer.Option(None, "--ratings",
+                                help="Keep only the tests a bench with these ratings would "
+                                     "have completed, e.g. 'velocity=0.2,force=200' (m/s, N; "
+                                     "also stroke in m)."),
     plot: Path = typer.Option(None, "--plot", help="Write regression/prediction plots (PNG)."),
     transform: str = typer.Option("log", "--transform",
                                   help="log (default: compress heavy-tailed features and "
@@ -70,9 +74,10 @@ def train(
 
     from ..ann import FidelityANN, parse_topologies
     from ..dataset.store import join_tables, read_table
-    from ..dataset.table import PARAM, training_data
+    from ..dataset.table import PARAM, parse_ratings, training_data, within_ratings
     from ..errors import ConfigError
 
+    limits = parse_ratings(ratings) if ratings is not None else {}
     _check_writable(out, "--out")
     if plot:
         _check_writable(plot, "--plot")
@@ -81,6 +86,8 @@ def train(
         frame = join_tables([read_table(t) for t in tables])
     for w in caught:
         typer.echo(f"note: {w.message}", err=True)
+    if limits:
+        frame = within_ratings(frame, limits)
     X, y, _rows = training_data(frame, features, target, family or None, exclude or None,
                                 extra=extra or ())
     if len(y) < 10:

@@ -7,8 +7,15 @@
 from .execute import batches_of, run_sweep
 from .spec import Family, SweepSpec, enumerate_tests, load_spec, parse_spec
 from .store import join_tables, read_table
-from .table import FEATURE_SETS, feature_names, parse_feature_sets, training_data
+from .table import (
+    FEATURE_SETS,
+    feature_names,
+    parse_feature_sets,
+    parse_ratings,
+    training_data,
+    within_ratings,
+)
 
 __all__ = ["FEATURE_SETS", "Family", "SweepSpec", "batches_of", "enumerate_tests",
            "feature_names", "join_tables", "load_spec", "parse_feature_sets", "parse_spec",
-           "read_table", "run_sweep", "training_data"]
+           "parse_ratings", "read_table", "run_sweep", "training_data", "within_ratings"]

@@ -19,9 +19,7 @@ from typing import Any
 
 from ..errors import RthsError
 from .spec import SweepSpec
-from .table import FEATURE, PARAM, SET_1, TARGET, TARGETS
-
-MEASURE = "measure."
+from .table import FEATURE, MEASURE, PARAM, SET_1, TARGET, TARGETS
 
 THREADS_ENV = "RTHS3D_THREADS"
 """Environment variable: threads of a batch's MuJoCo thread pool (0 or unset: 2). Local

@@ -14,10 +14,15 @@ Column families of a sweep table (one row per test):
 ``target.<name>``
     reference errors (need the reference solution): ``e_rel_ref`` (the ANN target,
     eq. 1 with z^r), ``e_mre_ref``, ``e_peak_ref``, ``e_rel_ref_f``.
+``measure.<name>``
+    every other measure of the record, among them the bench load ``stroke_peak`` (m),
+    ``velocity_peak`` (m/s) and ``force_peak`` (N) that :func:`within_ratings` compares
+    with a bench's ratings.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -30,10 +35,16 @@ from ..metrics.features import feature_names as _feature_names
 FEATURE = "feature."
 TARGET = "target."
 PARAM = "param."
+MEASURE = "measure."
+RATINGS: dict[str, tuple[str, str]] = {
+    "stroke": ("stroke_peak", "m"), "velocity": ("velocity_peak", "m/s"),
+    "force": ("force_peak", "N"),
+}
+"""Bench rating → (bench-load measure it bounds, unit); the names of :class:`SafetyLimits`."""
 DEFAULT_TARGET = "e_rel_ref"
 __all__ = ["DEFAULT_TARGET", "FEATURE", "FEATURE_SETS", "PARAM", "SET_1", "SET_2", "SET_3",
            "TARGET", "TARGETS", "feature_names", "has_params", "input_column",
-           "param_column", "training_data"]
+           "param_column", "parse_ratings", "training_data", "within_ratings"]
 
 
 def parse_feature_sets(text: str, field: str = "--features") -> tuple[int, ...]:
@@ -115,3 +126,53 @@ def training_data(frame: Any, feature_set: int, target: str = DEFAULT_TARGET,
     X = rows[cols].copy()
     X.columns = names
     return X, y[ok], rows
+
+
+def parse_ratings(text: str, field: str = "--ratings") -> dict[str, float]:
+    """``'velocity=0.2,force=200'`` → ``{"velocity": 0.2, "force": 200.0}`` (SI: m, m/s, N);
+    a ConfigError naming ``field`` for an unknown rating or a value that is not > 0."""
+    out: dict[str, float] = {}
+    for item in (v.strip() for v in text.split(",")):
+        if not item:
+            continue
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or name not in RATINGS:
+            raise ConfigError(field, item, "expected NAME=VALUE with NAME one of "
+                              f"{', '.join(RATINGS)} (e.g. velocity=0.2 for 0.2 m/s)")
+        try:
+            v = float(value)
+        except ValueError:
+            v = math.nan
+        if not (math.isfinite(v) and v > 0):
+            raise ConfigError(f"{field} {name}", value.strip(),
+                              f"must be a number > 0 ({RATINGS[name][1]})")
+        out[name] = v
+    if not out:
+        raise ConfigError(field, text, "give at least one of "
+                          f"{', '.join(f'{k}=VALUE' for k in RATINGS)}")
+    return out
+
+
+def within_ratings(frame: Any, ratings: dict[str, float]) -> Any:
+    """The rows whose bench load stays within every rating: the tests a bench with these
+    ratings would have run to the end (the paper's condition on its tests: "the maximum force
+    of the used FTS was not exceeded and [...] the tests stayed within the limits of actuator
+    stroke and maximum velocity").
+
+    ``ratings`` maps ``stroke`` (m), ``velocity`` (m/s) and ``force`` (N) to limits, as
+    :func:`parse_ratings` returns them; a row passes when ``measure.<name>_peak`` ≤ the
+    rating (a test without the measure, e.g. one stopped at its first sample, does not).
+    A table swept before these measures existed raises a ConfigError that says so.
+    """
+    keep = np.ones(len(frame), dtype=bool)
+    for name, limit in ratings.items():
+        if name not in RATINGS:
+            raise ConfigError("ratings", name, f"one of {', '.join(RATINGS)}")
+        col = MEASURE + RATINGS[name][0]
+        if col not in frame.columns:
+            raise ConfigError("ratings", name, f"the table has no {col!r} column (swept "
+                              "before the bench-load measures existed: sweep it again into "
+                              "a new folder)")
+        keep &= frame[col].to_numpy(dtype=float) <= limit
+    return frame[keep]

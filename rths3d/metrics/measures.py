@@ -5,10 +5,10 @@ One code path for one DOF and for several: every interface measure is computed p
 ``{"dofs": {"z": {...}, ...}, "aggregate": {...}}``.
 
 Aggregate (multi-DOF). Dimensionless interface measures (tracking, SSP, FEI, reference
-errors, J1–J9 and the τ-ratios) are those of the **dominant DOF**: the DOF that exchanges the
-most power at the interface, largest std(z)·std(F'_m) (J for translations and rotations
-alike; means removed, so a static offset exchanges none); without ``f_meas`` the DOF of
-largest std(z) (which then compares m with rad).
+errors, J1–J9 and the τ-ratios) and the bench-load peaks are those of the **dominant DOF**:
+the DOF that exchanges the most power at the interface, largest std(z)·std(F'_m) (J for
+translations and rotations alike; means removed, so a static offset exchanges none); without
+``f_meas`` the DOF of largest std(z) (which then compares m with rad).
 Energies add up: ``e_error`` and ``e_input`` are sums over the DOFs, ``e_strain`` uses the full
 k_EXP matrix, and ``hsem_s``/``hsem_i``/``eei`` are formed from these totals. System-level
 quantities (φ, κ, ζ, ω's, τ_max, τ_cr, PSI, EEI) appear once, in the aggregate (and in the flat
@@ -45,7 +45,7 @@ import numpy as np
 
 from ..errors import ConfigError, RecordError
 from ..record import Record
-from . import energy, frequency, reference, ssp, susceptibility, tracking
+from . import bench, energy, frequency, reference, ssp, susceptibility, tracking
 from ._signals import col_mean
 from .features import feature_names
 
@@ -216,7 +216,9 @@ def compute_measures(record: Record, **context: Any) -> dict[str, Any]:
     ``e_strain`` (J), ``hsem_s``, ``hsem_i``, ``eei``, ``e_rel_ref``, ``e_mre_ref``,
     ``e_peak_ref``, ``e_rel_ref_f``, ``j1`` (s) … ``j9`` (%), and the system keys ``phi``,
     ``kappa``, ``zeta``, ``omega_num``, ``omega_dyn`` (rad/s), ``tau_ratio_num``,
-    ``tau_ratio_dyn``, ``tau_max`` (s), ``tau_ratio_max``, ``tau_cr`` (s), ``psi``.
+    ``tau_ratio_dyn``, ``tau_max`` (s), ``tau_ratio_max``, ``tau_cr`` (s), ``psi``; and the
+    bench load ``stroke_peak`` (m), ``velocity_peak`` (m/s), ``force_peak`` (N) of
+    :mod:`.bench`.
     """
     if not isinstance(record, Record):
         raise RecordError(f"compute_measures needs a Record, got {type(record).__name__}")
@@ -255,6 +257,10 @@ def compute_measures(record: Record, **context: Any) -> dict[str, Any]:
     f = frequency.fei_from_spectra(z_spec, zp_spec, record.n, dt, l_exp)
     per["fei_A"], per["fei_phi"] = np.atleast_1d(f.A), np.atleast_1d(f.phi)
     per["fei_d"], per["f_eq"] = np.atleast_1d(f.d), np.atleast_1d(f.f_eq)
+    per["stroke_peak"] = np.atleast_1d(bench.stroke_peak(z))
+    per["velocity_peak"] = np.atleast_1d(bench.velocity_peak(z, dt))
+    if fm is not None:
+        per["force_peak"] = np.atleast_1d(bench.force_peak(fm))
 
     k_exp_raw = _get(context, meta, "k_exp", ("experiment", "k_exp"), ("params", "k_exp"))
     k_exp = None if k_exp_raw is None else _matrix(k_exp_raw, nd, "k_exp")
