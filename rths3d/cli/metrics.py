@@ -26,6 +26,10 @@ _LABELS: dict[str, tuple[str, str]] = {
     "tau_ratio_num": ("τ_ratio,NUM (eq. 13)", ""), "tau_ratio_dyn": ("τ_ratio,DYN (eq. 12)", ""),
     "tau_max": ("τ_max = PM/ω_c", "s"), "tau_ratio_max": ("τ_ratio,max (eq. 14)", ""),
     "tau_cr": ("τ_cr (critical delay)", "s"), "psi": ("PSI", ""),
+    # bench load: translations in m, m/s, N; rotations in rad, rad/s, N·m
+    "stroke_peak": ("peak stroke max|z|", "m, rad"),
+    "velocity_peak": ("peak velocity max|ż|", "m/s, rad/s"),
+    "force_peak": ("peak force max|F'_m|", "N, N·m"),
 }
 for _i in range(2, 10):
     _LABELS[f"j{_i}"] = (f"J{_i}", "%")
