@@ -388,3 +388,19 @@ def test_within_ratings_refuses_a_table_without_bench_load() -> None:
     old = pd.DataFrame({"test_id": ["a"], "status": ["ok"], "measure.f_eq": [1.0]})
     with pytest.raises(ConfigError, match="measure.velocity_peak.*sweep it again"):
         within_ratings(old, {"velocity": 0.1})
+
+
+def test_within_ratings_refuses_a_partly_old_table() -> None:
+    """Finished tests without the peak (a sweep resumed across versions) are an error, not
+    silently dropped; a stopped test without it is simply not kept."""
+    import numpy as np
+    import pandas as pd
+
+    from rths3d.dataset import within_ratings
+
+    mixed = pd.DataFrame({"test_id": ["a", "b", "c"], "status": ["ok", "ok", "stopped"],
+                          "measure.velocity_peak": [0.05, np.nan, np.nan]})
+    with pytest.raises(ConfigError, match="1 finished tests have no"):
+        within_ratings(mixed, {"velocity": 0.1})
+    fine = mixed.drop(index=1)
+    assert list(within_ratings(fine, {"velocity": 0.1})["test_id"]) == ["a"]

@@ -162,17 +162,26 @@ def within_ratings(frame: Any, ratings: dict[str, float]) -> Any:
 
     ``ratings`` maps ``stroke`` (m), ``velocity`` (m/s) and ``force`` (N) to limits, as
     :func:`parse_ratings` returns them; a row passes when ``measure.<name>_peak`` ≤ the
-    rating (a test without the measure, e.g. one stopped at its first sample, does not).
-    A table swept before these measures existed raises a ConfigError that says so.
+    rating (a test without the measure, e.g. one stopped at its first sample, does not). A
+    multi-DOF row holds its dominant DOF's peaks (see :func:`rths3d.compute_measures`).
+    A table swept, or partly swept, before these measures existed raises a ConfigError that
+    says so, rather than silently dropping its older tests.
     """
     keep = np.ones(len(frame), dtype=bool)
+    finished = (frame["status"] == "ok").to_numpy() if "status" in frame.columns else keep
     for name, limit in ratings.items():
         if name not in RATINGS:
             raise ConfigError("ratings", name, f"one of {', '.join(RATINGS)}")
         col = MEASURE + RATINGS[name][0]
+        again = "sweep it again into a new folder"
         if col not in frame.columns:
             raise ConfigError("ratings", name, f"the table has no {col!r} column (swept "
-                              "before the bench-load measures existed: sweep it again into "
-                              "a new folder)")
-        keep &= frame[col].to_numpy(dtype=float) <= limit
+                              f"before the bench-load measures existed: {again})")
+        peak = frame[col].to_numpy(dtype=float)
+        n_old = int((finished & np.isnan(peak)).sum())
+        if n_old:
+            raise ConfigError("ratings", name, f"{n_old} finished tests have no {col!r} "
+                              f"(resumed from a sweep older than the bench-load measures: "
+                              f"{again})")
+        keep &= peak <= limit
     return frame[keep]
