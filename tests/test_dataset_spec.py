@@ -404,3 +404,18 @@ def test_within_ratings_refuses_a_partly_old_table() -> None:
         within_ratings(mixed, {"velocity": 0.1})
     fine = mixed.drop(index=1)
     assert list(within_ratings(fine, {"velocity": 0.1})["test_id"]) == ["a"]
+
+
+def test_within_ratings_checks_every_rating_on_every_row_without_status() -> None:
+    """Without a status column every row is finished: a row that fails the first rating and
+    lacks the second rating's peak still makes the table refused (no narrowing between
+    ratings)."""
+    import numpy as np
+    import pandas as pd
+
+    from rths3d.dataset import within_ratings
+
+    rows = pd.DataFrame({"test_id": ["a", "b"], "measure.velocity_peak": [0.05, 0.5],
+                         "measure.force_peak": [10.0, np.nan]})
+    with pytest.raises(ConfigError, match="1 finished tests have no 'measure.force_peak'"):
+        within_ratings(rows, {"velocity": 0.1, "force": 100.0})
