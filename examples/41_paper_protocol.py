@@ -60,7 +60,8 @@ def main() -> None:
                          "rows)")
     ap.add_argument("--topologies", default=None,
                     help="candidate hidden layers, e.g. '10x10;20x20' (default: the "
-                         "estimator's 2;5;10;20;5x5;10x10); larger nets for the full grid")
+                         "estimator's 2;5;10;20;5x5;10x10); larger nets for the full grid "
+                         "(30x30, or three layers: 20x20x20)")
     ap.add_argument("--splits", type=int, default=1,
                     help="train on N 70/15/15 splits (seeds 0..N-1) and pool the ρ figures")
     ap.add_argument("--no-bypass", action="store_true",
