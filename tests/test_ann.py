@@ -292,6 +292,21 @@ def test_bypass_jacobian_matches_autograd() -> None:
     assert torch.allclose(j, jacrev(lambda v: forward(topo, v, x))(w), atol=1e-12)
 
 
+def test_three_hidden_layer_bypass_jacobian_matches_autograd() -> None:
+    """For three hidden layers with the bypass (the 20x20x20 nets of docs/ann.md, scaled
+    down) the analytic LM Jacobian equals torch autograd's, saturated units included."""
+    from rths3d.ann import parse_topologies
+
+    assert parse_topologies("20x20x20") == ((20, 20, 20),)
+    topo = Topology(4, (5, 4, 3), bypass=True)
+    w = init_weights(topo, np.random.default_rng(2)) * 2.0  # drives some units into ±1
+    x = torch.as_tensor(np.random.default_rng(3).uniform(-1, 1, (60, 4)), dtype=torch.float64)
+    a, j = jacobian(topo, w, x)
+    assert torch.allclose(a, forward(topo, w, x), atol=1e-14)
+    assert torch.allclose(j, jacrev(lambda v: forward(topo, v, x))(w), atol=1e-12)
+    assert j.shape == (60, 4 * 5 + 5 + 5 * 4 + 4 + 4 * 3 + 3 + 3 + 1 + 4)
+
+
 def test_bypass_extrapolates_beyond_training_range(tmp_path) -> None:
     """A plain satlins net flattens beyond the largest training target; the bypass net (the
     default) follows the trend there, and save/load keeps it (old files load as plain nets)."""
