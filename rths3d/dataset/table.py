@@ -168,9 +168,9 @@ def within_ratings(frame: Any, ratings: dict[str, float]) -> Any:
     says so, rather than silently dropping its older tests.
     """
     keep = np.ones(len(frame), dtype=bool)
-    # without a status column every row counts as finished (a copy: `keep` narrows below)
+    # without a status column every row counts as finished
     finished = ((frame["status"] == "ok").to_numpy() if "status" in frame.columns
-                else keep.copy())
+                else np.ones(len(frame), dtype=bool))
     for name, limit in ratings.items():
         if name not in RATINGS:
             raise ConfigError("ratings", name, f"one of {', '.join(RATINGS)}")
