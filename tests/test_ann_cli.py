@@ -101,6 +101,28 @@ def test_cli_bad_input_one_line_exit_2(table, tmp_path) -> None:
     assert q.returncode == 2 and "model" in q.stderr and "Traceback" not in q.stderr
 
 
+def test_train_on_named_features_and_predict(table, tmp_path) -> None:
+    """--features takes Table-3 feature names: the model uses exactly those, in that order,
+    and the two features the target depends on give ρ > 0.99; unknown or repeated names are
+    one error line naming --features."""
+    model = tmp_path / "m.json"
+    p = run("train", str(table), "--features", "fei_d, e_rel_track", "--out", str(model),
+            "--json", "--topologies", "5", "--trainings", "2", "--transform", "linear")
+    assert p.returncode == 0, p.stderr
+    res = json.loads(p.stdout.strip().splitlines()[-1])
+    assert res["features"] == ["fei_d", "e_rel_track"]
+    assert json.loads(model.read_text())["feature_names"] == ["fei_d", "e_rel_track"]
+    assert res["r_test"] > 0.99
+    q = run("predict", str(model), str(table), "--json")
+    assert q.returncode == 0, q.stderr
+    assert json.loads(q.stdout)["r"] > 0.99
+    for bad, why in (("e_rel_track,nope", "Table-3 feature names"),
+                     ("zeta,zeta", "each feature at most once"), (",", "Table-3")):
+        b = run("train", str(table), "--features", bad, "--out", str(tmp_path / "b.json"))
+        assert b.returncode == 2 and "--features" in b.stderr and why in b.stderr, b.stderr
+        assert "Traceback" not in b.stderr
+
+
 def test_train_extra_parameter_and_predict_a_record(table, record, tmp_path) -> None:
     """--extra adds a test parameter as an input (named in the JSON and the model); predict
     reads it from a table's column or from a record's scene; a bad name is one error line."""

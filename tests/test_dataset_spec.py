@@ -365,6 +365,26 @@ def test_parse_feature_sets_keeps_order_and_names_the_option() -> None:
             parse_feature_sets(bad, "--sets")
 
 
+def test_parse_features_takes_a_set_or_table3_names_in_order() -> None:
+    """'2' → 2; 'zeta, e_rel_track' → those names in that order; training_data then gives
+    X exactly those columns; a set beyond 3, an unknown or a repeated name is a ConfigError
+    naming the option."""
+    import pandas as pd
+
+    from rths3d.dataset import parse_features, training_data
+    from rths3d.dataset.table import SET_1
+
+    assert parse_features("2") == 2
+    assert parse_features(" zeta , e_rel_track") == ("zeta", "e_rel_track")
+    frame = pd.DataFrame({**{f"feature.{k}": [1.0, 2.0] for k in SET_1},
+                          "target.e_rel_ref": [0.1, 0.2]})
+    X, y, _ = training_data(frame, parse_features("zeta,e_rel_track"))
+    assert list(X.columns) == ["zeta", "e_rel_track"] and len(y) == 2
+    for bad in ("4", "zeta,nope", "zeta,zeta", ""):
+        with pytest.raises(ConfigError, match="--features"):
+            parse_features(bad)
+
+
 def test_parse_ratings_names_the_option_and_the_limit() -> None:
     """'velocity=0.2, force=200' → SI floats; an unknown name, a non-positive value or an
     empty text is a ConfigError naming the option."""

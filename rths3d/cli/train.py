@@ -39,7 +39,10 @@ def train(
                                         help="Sweep table (.parquet/.csv) or sweep output "
                                              "folder; several are joined into one data set "
                                              "(a test in two of them is kept once)."),
-    features: int = typer.Option(..., "--features", help="Table-3 feature set: 1, 2 or 3."),
+    features: str = typer.Option(..., "--features",
+                                 help="Table-3 feature set: 1, 2 or 3, or Table-3 feature "
+                                      "names, e.g. 'e_rel_track,zeta,hsem_s' (a set chosen "
+                                      "on your data)."),
     out: Path = typer.Option(..., "--out", help="Model file to write (.json)."),
     as_json: bool = typer.Option(False, "--json", help="Print the scores as one JSON line."),
     topologies: str = typer.Option(None, "--topologies",
@@ -74,9 +77,10 @@ def train(
 
     from ..ann import FidelityANN, parse_topologies
     from ..dataset.store import join_tables, read_table
-    from ..dataset.table import PARAM, parse_ratings, training_data, within_ratings
+    from ..dataset.table import PARAM, parse_features, parse_ratings, training_data, within_ratings
     from ..errors import ConfigError
 
+    chosen = parse_features(features)
     limits = parse_ratings(ratings) if ratings is not None else {}
     _check_writable(out, "--out")
     if plot:
@@ -88,7 +92,7 @@ def train(
         typer.echo(f"note: {w.message}", err=True)
     if limits:
         frame = within_ratings(frame, limits)
-    X, y, _rows = training_data(frame, features, target, family or None, exclude or None,
+    X, y, _rows = training_data(frame, chosen, target, family or None, exclude or None,
                                 extra=extra or ())
     if len(y) < 10:
         raise ConfigError("table", f"{len(y)} usable rows", "need at least 10 finished tests")
@@ -103,7 +107,8 @@ def train(
     sc = model.scores(X, y)
     res = {"r_train": sc["r_train"], "r_val": sc["r_val"], "r_test": sc["r_test"],
            "mse": sc["mse"], "mse_test": sc["mse_test"], "topology": sc["topology"],
-           "n_samples": int(len(y)), "features": features, "model": str(out),
+           "n_samples": int(len(y)),
+           "features": chosen if isinstance(chosen, int) else list(chosen), "model": str(out),
            "extra": [c for c in X.columns if c.startswith(PARAM)],
            "r_test_members": _med_worst(sc["members_r_test"]),
            "r_train_members": _med_worst(sc["members_r_train"]),
@@ -113,10 +118,12 @@ def train(
         from ..ann.plots import save_figures
 
         mean, std = model.predict(X, return_std=True, warn=False)
+        title = (f"feature set {chosen}" if isinstance(chosen, int)
+                 else f"features {', '.join(chosen)}")
         tr, te = model.indices["train"], model.indices["test"]
         try:
             save_figures(plot, {"training": (y[tr], mean[tr]), "test": (y[te], mean[te])},
-                         spread={"test": std[te]}, title=f"feature set {features}")
+                         spread={"test": std[te]}, title=title)
         except OSError as exc:
             raise ConfigError("--plot", str(plot),
                               f"cannot write the plot: {exc.strerror or exc}") from exc

@@ -11,11 +11,13 @@ from .table import (
     FEATURE_SETS,
     feature_names,
     parse_feature_sets,
+    parse_features,
     parse_ratings,
     training_data,
     within_ratings,
 )
 
 __all__ = ["FEATURE_SETS", "Family", "SweepSpec", "batches_of", "enumerate_tests",
-           "feature_names", "join_tables", "load_spec", "parse_feature_sets", "parse_spec",
-           "parse_ratings", "read_table", "run_sweep", "training_data", "within_ratings"]
+           "feature_names", "join_tables", "load_spec", "parse_feature_sets", "parse_features",
+           "parse_spec", "parse_ratings", "read_table", "run_sweep", "training_data",
+           "within_ratings"]

@@ -44,7 +44,7 @@ RATINGS: dict[str, tuple[str, str]] = {
 DEFAULT_TARGET = "e_rel_ref"
 __all__ = ["DEFAULT_TARGET", "FEATURE", "FEATURE_SETS", "PARAM", "SET_1", "SET_2", "SET_3",
            "TARGET", "TARGETS", "feature_names", "has_params", "input_column",
-           "param_column", "parse_ratings", "training_data", "within_ratings"]
+           "param_column", "parse_features", "parse_ratings", "training_data", "within_ratings"]
 
 
 def parse_feature_sets(text: str, field: str = "--features") -> tuple[int, ...]:
@@ -59,9 +59,20 @@ def parse_feature_sets(text: str, field: str = "--features") -> tuple[int, ...]:
     return sets
 
 
-def feature_names(feature_set: int) -> tuple[str, ...]:
-    """Feature names of Table-3 set 1, 2 or 3 (an error names the ``features`` option)."""
+def feature_names(feature_set: int | Sequence[str]) -> tuple[str, ...]:
+    """Feature names of Table-3 set 1, 2 or 3, or a subset of Table 3 given by name (an
+    error names the ``features`` option)."""
     return _feature_names(feature_set, field="features")
+
+
+def parse_features(text: str, field: str = "--features") -> int | tuple[str, ...]:
+    """``'2'`` → ``2`` (a Table-3 set); ``'e_rel_track,zeta'`` → those Table-3 features, in
+    the order given; a ConfigError naming ``field`` for anything else."""
+    text = text.strip()
+    if text.isdigit():
+        _feature_names(int(text), field=field)  # 1, 2 or 3, else the error
+        return int(text)
+    return _feature_names([n.strip() for n in text.split(",") if n.strip()], field=field)
 
 
 def param_column(name: str) -> str:
@@ -81,10 +92,12 @@ def input_column(name: str) -> str:
     return name if name.startswith(PARAM) else FEATURE + name
 
 
-def training_data(frame: Any, feature_set: int, target: str = DEFAULT_TARGET,
+def training_data(frame: Any, feature_set: int | Sequence[str], target: str = DEFAULT_TARGET,
                   families: list[str] | None = None, exclude: list[str] | None = None,
                   extra: Sequence[str] = ()) -> tuple[Any, np.ndarray, Any]:
     """Features X (DataFrame, columns = feature names), target y and the kept rows.
+
+    ``feature_set``: a Table-3 set (1, 2, 3) or a list of Table-3 feature names.
 
     Keeps tests with status ``ok`` and finite features and target; optionally only the
     given families or all but the excluded ones. ``extra`` adds test parameters known before

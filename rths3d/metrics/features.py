@@ -17,6 +17,8 @@ shows a mark under all 15 columns, so the sets are reconstructed from the paper'
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 SET_1: tuple[str, ...] = (
     "e_rel_track", "e_mte_track", "e_peak_track", "e_rel_track_f", "fei_A", "fei_d",
     "e_error", "e_input", "hsem_s", "phi", "kappa", "zeta", "tau_ratio_dyn",
@@ -39,10 +41,24 @@ TARGETS: tuple[str, ...] = ("e_rel_ref", "e_mre_ref", "e_peak_ref", "e_rel_ref_f
 """Reference errors (need z^r); ``e_rel_ref`` is the paper's ANN target."""
 
 
-def feature_names(feature_set: int, field: str = "set") -> tuple[str, ...]:
-    """Names of Table-3 feature set 1, 2 or 3; ``field`` names the input in the error."""
+def feature_names(feature_set: int | Sequence[str], field: str = "set") -> tuple[str, ...]:
+    """Names of Table-3 feature set 1, 2 or 3, or of a chosen subset of Table 3 given as
+    names (e.g. a set 3 chosen on one's own data, as the paper chose its set 3 by
+    sensitivity); ``field`` names the input in the error."""
     from ..errors import ConfigError
 
+    if isinstance(feature_set, str):
+        feature_set = [feature_set]
+    if not isinstance(feature_set, int):
+        names = tuple(feature_set)
+        unknown = [n for n in names if n not in SET_1]
+        if not names or unknown:
+            raise ConfigError(field, unknown[0] if unknown else "",
+                              "a feature set 1, 2, 3 or Table-3 feature names: "
+                              + ", ".join(SET_1))
+        if len(set(names)) != len(names):
+            raise ConfigError(field, ",".join(names), "each feature at most once")
+        return names
     if feature_set not in FEATURE_SETS:
         raise ConfigError(field, feature_set, "must be 1, 2 or 3 (paper Table 3)")
     return FEATURE_SETS[feature_set]
