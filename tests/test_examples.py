@@ -33,6 +33,8 @@ def test_help_prints_usage_without_running(tmp_path, script):
     ("51_replay.py", ["missing.parquet"], "missing.parquet"),
     ("42_learning_curve.py", ["c.parquet", "--features", "4"], "--features: '4'"),
     ("44_leave_one_family_out.py", ["c.parquet", "--features", "1,x"], "--features: '1,x'"),
+    ("43_feature_probe.py", ["c.parquet", "--named", "zeta,nope"], "--named: 'nope'"),
+    ("43_feature_probe.py", ["c.parquet", "--forward", "16"], "--forward: 16"),
 ])
 def test_bad_arguments_give_one_line_and_exit_2(tmp_path, script, args, needle):
     """A user mistake in an example's arguments prints one `error:` line, no traceback."""
@@ -86,3 +88,17 @@ def test_leave_one_family_out_scores_each_family(tmp_path):
                                                                   "lofo_b_set3.png"}
     bad = _run(tmp_path, "44_leave_one_family_out.py", str(table), "--families", "c")
     assert bad.returncode == 2 and bad.stderr.startswith("error: --families: 'c'"), bad.stderr
+
+
+def test_feature_probe_forward_selection_picks_the_features_the_target_depends_on(tmp_path):
+    """43 --forward 2 on a target of e_rel_track and fei_d (the rest noise) picks those two,
+    e_rel_track first (it carries more of the variance)."""
+    import json
+
+    pytest.importorskip("sklearn")
+    table = _two_family_table(tmp_path / "fam.parquet")
+    out = _run(tmp_path, "43_feature_probe.py", str(table), "--forward", "2")
+    assert out.returncode == 0, out.stderr
+    rows = json.loads(out.stdout.strip().splitlines()[-1])["probe"]
+    assert [r["set"] for r in rows] == ["e_rel_track", "e_rel_track,fei_d"]
+    assert rows[1]["r_test"] > rows[0]["r_test"] and rows[1]["r_test"] > 0.95
