@@ -72,9 +72,12 @@ def main() -> None:
     frame = read_table(args.table)
     if limits:
         frame = within_ratings(frame, limits)
-    for s in sets if not args.forward else ():  # name errors before the first fit
-        for extra in groups or [()]:
-            training_data(frame.iloc[:1], s, extra=extra)
+    # the rows to probe: each set alone and with each group of parameters, then each named
+    # group; --forward chooses its rows as it goes
+    runs = [] if args.forward else ([(s, e) for s in sets for e in [(), *groups]]
+                                    + [(n, ()) for n in named])
+    for inputs, extra in runs:  # name errors before the first fit, not after it
+        training_data(frame.iloc[:1], inputs, extra=extra)
 
     def probe(inputs, extra=()) -> dict:
         """ρ of the trees on the training and the held-out tests, given these inputs."""
@@ -103,14 +106,11 @@ def main() -> None:
             rows.append({"set": ",".join(chosen), "extra": [], **tried[best]})
             print(f"{len(chosen)}: + {best}: ρ test {100 * tried[best]['r_test']:.1f} %",
                   file=sys.stderr, flush=True)
-    else:
-        for inputs, extras in [*((s, [(), *groups]) for s in sets),
-                               *((n, [()]) for n in named)]:
-            for extra in extras:
-                label = inputs if isinstance(inputs, int) else ",".join(inputs)
-                rows.append({"set": label, "extra": list(extra), **probe(inputs, extra)})
-                print(f"set {label} + {', '.join(extra) or '–'}: ρ test "
-                      f"{100 * rows[-1]['r_test']:.1f} %", file=sys.stderr, flush=True)
+    for inputs, extra in runs:
+        label = inputs if isinstance(inputs, int) else ",".join(inputs)
+        rows.append({"set": label, "extra": list(extra), **probe(inputs, extra)})
+        print(f"set {label} + {', '.join(extra) or '–'}: ρ test "
+              f"{100 * rows[-1]['r_test']:.1f} %", file=sys.stderr, flush=True)
 
     print("| set | added parameters | n train | n test | ρ train % | ρ test % |")
     print("|---|---|---|---|---|---|")
