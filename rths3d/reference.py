@@ -79,7 +79,26 @@ def reference_solution(scenes: list[Scene], *, tol: float | None = None, max_ite
                           arr("d_contact"), dt=base.dt, substeps=REFERENCE_SUBSTEPS,
                           method="rk4")
         tol = NUMPY_TOL if tol is None else tol
-    n_if = len(base.dofs)
+    return couple_exact(num, spec, N, tol=tol, max_iter=max_iter, progress=progress)
+
+
+def couple_exact(num, part, n_steps: int, *, tol: float = NUMPY_TOL, max_iter: int = 30,
+                 progress: bool = False) -> dict[str, np.ndarray]:
+    """Couple a numerical substructure ``num`` and a part model ``part`` with compatibility
+    and equilibrium exact at every sample (the interface iteration of the module docstring).
+
+    ``num``: a numerical substructure (``step(n, f_n, f_next)``, ``z``, ``x``,
+    ``get_state``/``set_state``; e.g. :class:`~rths3d.numerical.LinearSubstructure` built with
+    ``method="exact"``). ``part``: any model of the experimental part for K tests with
+    ``advance(z_from, z_to) -> F`` ((K, n_if) arrays: the mount moves linearly from
+    ``z_from`` to ``z_to`` over one step, F is the restoring force at its end) and
+    ``get_state``/``set_state``; the specimen models, or an identified surrogate. Returns
+    ``z_ref``, ``f_ref`` (K, N+1, n_if), ``x_ref`` (K, N+1, n), ``iterations`` and
+    ``mean_iterations``.
+    """
+    N = int(n_steps)
+    K, n_if = num.z.shape
+    spec = part
     z_ref = np.zeros((K, N + 1, n_if))
     f_ref = np.zeros((K, N + 1, n_if))
     x_ref = np.zeros((K, N + 1, num.n))
