@@ -76,7 +76,7 @@ def main() -> None:
                     help="measure the in-process Viewer (shares the loop's GIL)")
     args = ap.parse_args()
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    from rths3d.loop import scene_with
+    from rths3d.scene import scene_with
     from rths3d.viz.live import LiveRun, load_target
 
     duration = 2.0 if args.quick else 10.0

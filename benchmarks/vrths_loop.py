@@ -47,10 +47,10 @@ def main() -> None:
         r = run(sc, "stewart", reference=False)
         rtf_st.append(r.rtf)
         # bare mj_step of the same model (same number of physics steps), measured right after
-        from rths3d.transfer.systems import StewartTransfer
+        from rths3d.transfer import StewartTransfer
 
-        tr = StewartTransfer(sc, 1)
-        m, d = tr.sim.model, tr.sim.data
+        tr = StewartTransfer([sc.with_transfer("stewart")])
+        m, d = tr.sim.model, tr.sim.batch.d
         nstep = sc.n_steps * sc.transfer.substeps
         t0 = time.perf_counter()
         step = mujoco.mj_step
@@ -76,9 +76,10 @@ def main() -> None:
     # the machine's limit for that batch: raw mujoco.batch stepping of the same model, no loop
     from mujoco.batch import Batch
 
-    from rths3d.transfer.systems import StewartTransfer
+    from rths3d.transfer import StewartTransfer
 
-    raw = Batch(StewartTransfer(sc, 1).sim.model, args.k_stewart, nthread=2)
+    raw = Batch(StewartTransfer([sc.with_transfer("stewart")]).sim.model, args.k_stewart,
+                nthread=2)
     nraw = int(sc.n_steps * sc.transfer.substeps / 10)
     t0 = time.perf_counter()
     for _ in range(nraw):

@@ -25,14 +25,11 @@ force) at least at first order — both measured in tests/test_reference.py.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
-from .scene import Scene
-
-if TYPE_CHECKING:
-    from .numerical import NumericalFactory
+from .config import Scene
+from .experiment import build_part_model
+from .numerical import LinearSubstructure, NumericalFactory
 
 REFERENCE_SUBSTEPS = 2
 """RK4 substeps per interface step of the numpy specimen in the reference."""
@@ -56,29 +53,16 @@ def reference_solution(scenes: list[Scene], *, tol: float | None = None, max_ite
     |Δz| (m, rad); default 1e-11 for the numpy part and 1e-9 for the MuJoCo part, whose
     contact solver is not reproducible below that (iterating further only repeats its noise).
     """
-    from .loop import build_numerical
-
     base = scenes[0]
-    K = len(scenes)
     N = base.n_steps
     # a plugged-in substructure must integrate implicitly in F_{n+1} when given f_next
-    num = numerical(scenes) if numerical is not None else build_numerical(scenes,
-                                                                           method="exact")
-    exps = [s.experiment for s in scenes]
-    if base.experiment.kind == "multidof" or specimen == "mujoco":
-        from .experiment.mujoco_specimen import MujocoSpecimen
-
-        spec = MujocoSpecimen(exps, base.dofs, base.dt, nthread=nthread)
-        tol = MUJOCO_TOL if tol is None else tol
-    else:
-        from .experiment.specimen import Specimen1D
-
-        arr = lambda a: np.array([getattr(e, a) for e in exps])  # noqa: E731
-        h0 = np.where([e.kind == "contact" for e in exps], arr("h0"), np.inf)
-        spec = Specimen1D(K, arr("m"), arr("k"), arr("d"), h0, arr("k_contact"),
-                          arr("d_contact"), dt=base.dt, substeps=REFERENCE_SUBSTEPS,
-                          method="rk4")
-        tol = NUMPY_TOL if tol is None else tol
+    num = numerical(scenes) if numerical is not None else \
+        LinearSubstructure.from_scenes(scenes, method="exact")
+    spec = build_part_model([s.experiment for s in scenes], base.dofs, base.dt,
+                            model=specimen, method="rk4", substeps=REFERENCE_SUBSTEPS,
+                            nthread=nthread)
+    # default: the part model's own reproducibility (1e-11 numpy, 1e-9 MuJoCo contact)
+    tol = spec.tolerance if tol is None else tol
     return couple_exact(num, spec, N, tol=tol, max_iter=max_iter, progress=progress)
 
 

@@ -15,14 +15,29 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import asdict, fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .config import (
+    ExcitationConfig,
+    ExperimentConfig,
+    Matrix,
+    NumericalConfig,
+    SafetyConfig,
+    SafetyLimits,
+    Scene,
+    SensorConfig,
+    TransferConfig,
+)
 from .errors import ConfigError
+from .experiment import part_class, part_kinds
+from .numerical.modal import coupled_fastest_eigenfrequency
+from .platform.geometry import DEFAULT_GEOMETRY
 from .record import DOFS
+from .transfer import compensator_kinds, transfer_class, transfer_kinds
 
 __all__ = [
     "ExcitationConfig",
@@ -35,18 +50,15 @@ __all__ = [
     "apply_overrides",
     "load_scene",
     "scene_from_dict",
+    "scene_to_dict",
+    "scene_with",
+    "transfer_kinds",
 ]
 
-TRANSFER_KINDS = ("ideal", "delay", "lti", "stewart")
-EXPERIMENT_KINDS = ("contact", "linear", "multidof")
 EXCITATION_KINDS = ("none", "force", "support", "ground")
 SIGNALS = ("sine", "raised_cosine", "file", "array")
 INTEGRATORS = ("exact", "central_difference")
-COMPENSATIONS = ("none", "velocity", "polynomial")
 SENSOR_KINDS = ("ideal", "first_order")
-
-Matrix = tuple[tuple[float, ...], ...]
-
 
 def _num(field_name: str, value: Any, *, lo: float | None = None, lo_open: bool = False,
          hi: float | None = None, unit: str = "") -> float:
@@ -85,210 +97,6 @@ def _matrix(field_name: str, value: Any, shape: tuple[int, int] | None = None) -
     if not np.all(np.isfinite(a)):
         raise ConfigError(field_name, value, "must be finite")
     return tuple(tuple(float(x) for x in row) for row in a)
-
-
-@dataclass(frozen=True)
-class NumericalConfig:
-    """Linear numerical substructure ``M ẍ + C ẋ + K x = p(t) − Γ F'_m`` (SI).
-
-    ``M`` (kg or kg·m²), ``C`` (N·s/m), ``K`` (N/m) are n×n; ``gamma`` (Γ) is n × n_if and
-    maps the interface DOFs (``Scene.dofs``) to numerical DOFs: the commanded interface
-    displacement is ``z = Γᵀ x``. ``integrator`` is ``exact`` (exact discretisation of the
-    state space with the force held over a step, unconditionally stable on its own) or
-    ``central_difference`` (explicit, stable for ω_max ΔT < 2, checked with the part's
-    spring added). The coupled loop (force held over a step) is only conditionally stable.
-    """
-
-    M: Matrix
-    C: Matrix
-    K: Matrix
-    gamma: Matrix
-    integrator: str = "exact"
-
-    @property
-    def n(self) -> int:
-        """Number of numerical DOFs."""
-        return len(self.M)
-
-
-@dataclass(frozen=True)
-class ExcitationConfig:
-    """Excitation of the numerical substructure.
-
-    ``kind``: ``none``; ``force`` (p = a(t)·direction, N); ``support`` (support motion u(t):
-    p = k_s u + c_s u̇ with k_s = K·1, c_s = C·1, the paper's suspension cosine z_d);
-    ``ground`` (ground acceleration ü_g: p = −M·1·ü_g). The signal a(t) / u(t) / ü_g(t) is
-    ``sine`` (amplitude·sin(2π f t + phase)), ``raised_cosine`` (the paper's z_d =
-    peak/2·(1 − cos 2π f_d t), peak = ``amplitude`` or h_0 + ``overtravel`` Δz_d), ``file``
-    (CSV with columns ``t`` and ``column``) or ``array`` (``times``, ``values``); recorded
-    signals are interpolated linearly and scaled by ``scale``.
-    """
-
-    kind: str = "none"
-    signal: str = "sine"
-    amplitude: float = 0.0
-    frequency: float = 0.0
-    phase: float = 0.0
-    overtravel: float = float("nan")
-    file: str = ""
-    column: str = "value"
-    scale: float = 1.0
-    times: tuple[float, ...] = ()
-    values: tuple[float, ...] = ()
-    direction: tuple[float, ...] = ()
-
-
-@dataclass(frozen=True)
-class ExperimentConfig:
-    """Experimental part mounted on the force-torque sensor (paper Figs. 4 and 5).
-
-    ``contact``: mass ``m`` (kg) on a spring ``k`` (N/m, damper ``d`` N·s/m) above the FTS,
-    hitting a world-fixed surface ``h0`` (m) above its static equilibrium; penalty contact
-    with stiffness ``k_contact`` (N/m) and damping ``d_contact`` (N·s/m).
-    ``linear``: the same part without the surface (Fig. 5).
-    ``multidof``: a rigid bar (mass ``m``, pitch inertia ``inertia`` kg·m²) on a heave
-    spring ``k`` and a pitch spring ``k_rot`` (N·m/rad) whose end (``arm`` m from the axis)
-    hits the surface: interface DOFs z and ry.
-    ``substeps``: physics steps per interface step for the specimen models.
-    """
-
-    kind: str = "contact"
-    m: float = 0.38
-    k: float = 8650.0
-    d: float = 0.0
-    h0: float = 0.005
-    k_contact: float = 1.0e5
-    d_contact: float = 40.0
-    inertia: float = 2.0e-3
-    k_rot: float = 400.0
-    d_rot: float = 0.0
-    arm: float = 0.1
-    substeps: int = 4
-
-
-STEWART_PER_TEST_SERVO = ("kp", "kv", "velocity_ff")
-"""Leg-servo settings that Stewart tests stepped together may vary test by test (per-test
-platform models of one structure); ``timeconst`` may too, as long as all are > 0 or all 0."""
-
-ACTUATOR_PER_TEST = ("delay", "num", "den", "comp_time", "kp", "kv", "timeconst", "velocity_ff")
-"""Transfer settings that tests of the ``delay`` and ``lti`` transfer systems stepped together
-may vary test by test (per-test delay lines and actuator models); ``compensation`` may too,
-between ``none`` and ``velocity`` (a per-test compensation time, 0 for none)."""
-
-PER_TEST_COMPENSATION = ("none", "velocity")
-"""Compensation kinds that ``delay``/``lti`` tests stepped together may mix."""
-
-
-@dataclass(frozen=True)
-class TransferConfig:
-    """Transfer system between command z and achieved z'.
-
-    ``kind``: ``ideal`` (z' = z), ``delay`` (z'(t) = z(t − ``delay``)), ``lti`` (continuous
-    transfer function ``num``/``den`` in s, discretised exactly with a held input, after a
-    pure ``delay``; empty num/den loads ``assets/platform_heave_tf.json`` with its identified
-    transport delay, ``delay`` then replacing the identification run's actuator delay, or a
-    50 Hz second-order lag) or ``stewart`` (the MuJoCo Stewart platform). ``compensation``
-    ``velocity`` adds ``comp_time``·ż to the command; ``polynomial`` extrapolates the command
-    ``comp_time`` ahead with a polynomial of ``poly_order`` through the last samples.
-    ``kp``, ``kv`` (N/m, N·s/m), ``timeconst`` (s), ``velocity_ff`` and ``substeps`` tune the
-    Stewart platform's leg servos; the ``lti`` path with the identified model follows
-    ``timeconst`` and ``velocity_ff`` (with kv/kp) too, by exchanging the identification run's
-    first-order lags for the scene's (:func:`rths3d.transfer.actuators.follow_servo_settings`).
-    """
-
-    kind: str = "ideal"
-    delay: float = 0.0
-    num: tuple[float, ...] = ()
-    den: tuple[float, ...] = ()
-    compensation: str = "none"
-    comp_time: float = 0.0
-    poly_order: int = 2
-    kp: float = 2.0e5
-    kv: float = 2.0e3
-    timeconst: float = 0.0
-    velocity_ff: bool = True
-    substeps: int = 1
-
-
-@dataclass(frozen=True)
-class SensorConfig:
-    """Force-torque sensor model between F_m and F'_m.
-
-    ``kind`` ``ideal`` or ``first_order`` (time constant ``time_constant`` s); then
-    F'_m = ``gain``·F + ``offset`` + white noise of std ``noise_std`` (N), delayed by
-    ``delay`` (s). ``seed`` seeds the noise.
-    """
-
-    kind: str = "ideal"
-    time_constant: float = 0.0
-    noise_std: float = 0.0
-    gain: float = 1.0
-    offset: float = 0.0
-    delay: float = 0.0
-    seed: int = 0
-
-
-@dataclass(frozen=True)
-class SafetyLimits:
-    """Bench limits: the test stops (SafetyStop) when one is exceeded.
-
-    ``stroke`` (m) and ``rotation`` (rad) bound |z|; ``velocity`` (m/s) bounds |ż| of the
-    command; ``force`` (N) and ``torque`` (N·m) bound |F'_m| (the FTS range);
-    ``divergence`` (m) bounds any numerical displacement. A growing interface oscillation
-    (a delay-induced RTHS instability) also counts as divergence: the peak |F'_m| of each DOF
-    over windows of ``growth_window`` (s) grew by more than ``growth`` (factor per window) in
-    ``growth_windows`` consecutive windows, each peak above 2 % of the FTS range
-    (``growth_windows = 0`` switches this off).
-    """
-
-    stroke: float = 0.04
-    rotation: float = 0.2
-    velocity: float = 0.5
-    force: float = 1000.0
-    torque: float = 100.0
-    divergence: float = 1.0
-    growth: float = 1.25
-    growth_window: float = 0.5
-    growth_windows: int = 4
-
-
-SafetyConfig = SafetyLimits
-
-
-@dataclass(frozen=True)
-class Scene:
-    """A complete vRTHS test description (SI units). See the module docstring."""
-
-    name: str
-    dofs: tuple[str, ...]
-    numerical: NumericalConfig
-    experiment: ExperimentConfig
-    excitation: ExcitationConfig = field(default_factory=ExcitationConfig)
-    transfer: TransferConfig = field(default_factory=TransferConfig)
-    sensor: SensorConfig = field(default_factory=SensorConfig)
-    safety: SafetyLimits = field(default_factory=SafetyLimits)
-    dt: float = 1.0e-3
-    duration: float = 10.0
-    source: str = ""
-
-    @property
-    def n_steps(self) -> int:
-        """Number of interface steps (samples = n_steps + 1)."""
-        return int(round(self.duration / self.dt))
-
-    def params(self) -> dict[str, Any]:
-        """Flat dict of all scalar parameters, keyed by dotted field names."""
-        out: dict[str, Any] = {"dt": self.dt, "duration": self.duration}
-        for sec in ("numerical", "experiment", "excitation", "transfer", "sensor", "safety"):
-            obj = getattr(self, sec)
-            for f in fields(obj):
-                out[f"{sec}.{f.name}"] = getattr(obj, f.name)
-        return out
-
-    def with_transfer(self, kind: str) -> Scene:
-        """The same scene with another transfer system."""
-        _choice("transfer.kind", kind, TRANSFER_KINDS)
-        return replace(self, transfer=replace(self.transfer, kind=kind))
 
 
 # ---------------------------------------------------------------------------- loading
@@ -418,8 +226,8 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
     exp_sec = _section(raw, "experiment", ExperimentConfig, required=True)
     if "kind" not in exp_sec:
         raise ConfigError("experiment.kind", None,
-                          f"required: one of {', '.join(EXPERIMENT_KINDS)}")
-    _choice("experiment.kind", exp_sec["kind"], EXPERIMENT_KINDS)
+                          f"required: one of {', '.join(part_kinds())}")
+    _choice("experiment.kind", exp_sec["kind"], part_kinds())
     pos = {"lo": 0.0, "lo_open": True}
     nonneg = {"lo": 0.0}
     exp = _build(ExperimentConfig, "experiment", exp_sec, {
@@ -429,7 +237,7 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
         "k_rot": {**pos, "unit": "N·m/rad"}, "d_rot": nonneg, "arm": {**pos, "unit": "m"}})
     if exp.substeps < 1 or exp.substeps > 64:
         raise ConfigError("experiment.substeps", exp.substeps, "must be in 1…64")
-    need = ("z", "ry") if exp.kind == "multidof" else ("z",)
+    need = part_class(exp.kind).dofs
     if tuple(dofs) != need:
         raise ConfigError("dofs", list(dofs), f"the {exp.kind} experiment has interface DOFs "
                           f"{list(need)}")
@@ -454,8 +262,8 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
         "delay": {**nonneg, "hi": 0.5, "unit": "s"},
         "comp_time": {**nonneg, "hi": 0.1, "unit": "s"},
         "kp": pos, "kv": nonneg, "timeconst": nonneg})
-    _choice("transfer.kind", tr.kind, TRANSFER_KINDS)
-    _choice("transfer.compensation", tr.compensation, COMPENSATIONS)
+    transfer_class(tr.kind)  # a ConfigError naming the registered kinds
+    _choice("transfer.compensation", tr.compensation, compensator_kinds())
     if tr.substeps < 1 or tr.substeps > 100:
         raise ConfigError("transfer.substeps", tr.substeps, "must be in 1…100")
     if tr.poly_order < 1 or tr.poly_order > 4:
@@ -498,10 +306,7 @@ def _check_coupled_stability(num: NumericalConfig, exp: ExperimentConfig,
     spring and does not slow the fastest mode (at ω ΔT ≈ 2 it barely moves), so the explicit
     integrator sees ω_max of (K + Γ k_EXP Γᵀ) v = ω² M v.
     """
-    from .experiment.mjcf import interface_matrices
-    from .numerical.modal import coupled_fastest_eigenfrequency
-
-    k_exp = np.array(interface_matrices(exp, dofs)[0])
+    k_exp = np.array(part_class(exp.kind)(exp).interface_matrices()[0])
     w = coupled_fastest_eigenfrequency(np.array(num.M), np.array(num.K), np.array(num.gamma),
                                        np.zeros_like(k_exp), k_exp)
     if w * dt >= 2.0:
@@ -513,12 +318,7 @@ def _check_coupled_stability(num: NumericalConfig, exp: ExperimentConfig,
 
 def _check_reach(saf: SafetyLimits, exc: ExcitationConfig, exp: ExperimentConfig) -> None:
     """Reject strokes the platform cannot reach and support motions beyond the stroke."""
-    try:
-        from .platform import DEFAULT_GEOMETRY
-
-        reach = DEFAULT_GEOMETRY.stroke / 2.0
-    except Exception:  # platform not importable: fall back to its documented ±50 mm
-        reach = 0.05
+    reach = DEFAULT_GEOMETRY.stroke / 2.0
     if saf.stroke > reach:
         raise ConfigError("safety.stroke", saf.stroke, f"unreachable: the platform's leg "
                           f"stroke allows at most {reach:g} m of heave")
@@ -600,3 +400,46 @@ def load_scene(path: str | Path, overrides: Sequence[str] | Mapping[str, Any] = 
         raise ConfigError("scene", str(p), "not a text TOML file") from None
     raw = apply_overrides(raw, overrides)
     return scene_from_dict(raw, name=p.stem, source=str(p))
+
+
+def scene_to_dict(scene: Scene) -> dict[str, Any]:
+    """The raw TOML-shaped mapping of a scene (inverse of :func:`scene_from_dict`)."""
+    out: dict[str, Any] = {"name": scene.name, "dofs": list(scene.dofs), "dt": scene.dt,
+                           "duration": scene.duration}
+    nm = scene.numerical
+    if nm.n == 1:
+        out["numerical"] = {"m": nm.M[0][0], "c": nm.C[0][0], "k": nm.K[0][0],
+                            "gamma": [list(r) for r in nm.gamma],
+                            "integrator": nm.integrator}
+    else:
+        out["numerical"] = {"M": [list(r) for r in nm.M], "C": [list(r) for r in nm.C],
+                            "K": [list(r) for r in nm.K], "gamma": [list(r) for r in nm.gamma],
+                            "integrator": nm.integrator}
+    for sec in ("experiment", "excitation", "transfer", "sensor", "safety"):
+        d = asdict(getattr(scene, sec))
+        out[sec] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in d.items()
+                    if not (isinstance(v, float) and math.isnan(v))}
+    return out
+
+
+def scene_with(scene: Scene, overrides: Mapping[str, Any] | Sequence[str],
+               _raw: dict | None = None) -> Scene:
+    """A validated copy of ``scene`` with dotted-key overrides (e.g. ``{"numerical.k": 5e3}``).
+
+    ``_raw``: the scene's :func:`scene_to_dict`, when the caller applies many overrides to
+    one scene (computed once)."""
+    if not overrides:
+        return scene
+    raw = dict(_raw) if _raw is not None else scene_to_dict(scene)
+    nm = raw["numerical"] = dict(raw["numerical"])
+    items = overrides.items() if isinstance(overrides, Mapping) else \
+        [tuple(s.split("=", 1)) for s in overrides]
+    for key, _ in items:
+        # single-DOF scenes accept both m/M, c/C, k/K
+        base, _, leaf = str(key).partition(".")
+        if base == "numerical" and leaf in ("M", "C", "K") and leaf.lower() in nm:
+            nm.pop(leaf.lower())
+        if base == "numerical" and leaf in ("m", "c", "k") and leaf.upper() in nm:
+            nm.pop(leaf.upper())
+    raw = apply_overrides(raw, overrides)
+    return scene_from_dict(raw, name=scene.name, source=scene.source)

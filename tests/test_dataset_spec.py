@@ -161,8 +161,7 @@ def test_shipped_specs_parse_and_resolve_their_scenes() -> None:
     from pathlib import Path
 
     from rths3d.dataset.runner import _overrides
-    from rths3d.loop import scene_with
-    from rths3d.scene import load_scene
+    from rths3d.scene import load_scene, scene_with
 
     folder = Path(__file__).resolve().parents[1] / "scenes" / "sweeps"
     sizes = {}

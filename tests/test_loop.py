@@ -131,7 +131,7 @@ def test_batch_equals_single_runs():
                                                                  (1e5, 0.01))]
     batch = run_batch(sc, sets, "lti", reference=False)
     for s, b in zip(sets, batch, strict=True):
-        from rths3d.loop import scene_with
+        from rths3d.scene import scene_with
 
         single = run(scene_with(sc, s), "lti", reference=False)
         np.testing.assert_allclose(b.record.columns["z_cmd.z"],
@@ -198,8 +198,8 @@ def test_cli_run_json_and_plot(tmp_path):
 
 def test_p_num_recorded_gives_eei_when_gamma_not_square():
     """p_num.<i> is the external force p(t) per numerical DOF, so the EEI exists for Γ 2×1."""
-    from rths3d.loop import scene_with
     from rths3d.metrics import compute_measures
+    from rths3d.scene import scene_with
 
     sc = load_scene(SCENES / "paper_linear.toml", ["duration=2.0"])
     # a two-mass chain under the force, coupled at its second mass only: Γ = [0, 1]ᵀ
@@ -277,7 +277,7 @@ def test_growth_stop_same_in_kernel_and_batch():
 @pytest.fixture(scope="module")
 def linear_both_integrators():
     """paper_linear (damped part, LTI transfer), 4 s, with each integrator."""
-    from rths3d.loop import scene_with
+    from rths3d.scene import scene_with
 
     sc = load_scene(SCENES / "paper_linear.toml", ["duration=4.0"])
     return {m: run(scene_with(sc, {"numerical.integrator": m}), "lti", reference=False)
@@ -345,7 +345,8 @@ def test_recorded_delay_margin_predicts_loop_stability():
 def test_stewart_tests_with_different_servos_and_parts_step_together():
     """Stewart tests differing in servo gains, lag, feed-forward and h0 form one group (per-test
     models) and each reproduces its own single run: z', F'_m, plate pose and z^r."""
-    from rths3d.loop import _group_key, scene_with
+    from rths3d.loop import batch_key as _group_key
+    from rths3d.scene import scene_with
 
     sc = load_scene(SCENES / "paper_contact.toml", ["duration=1.5"]).with_transfer("stewart")
     sets = [{"numerical.k": 5e3, "transfer.velocity_ff": True},
@@ -372,7 +373,8 @@ def test_stewart_tests_with_different_servos_and_parts_step_together():
 
 def test_stewart_delay_and_part_kind_split_groups():
     """Actuator delay and the part kind change the model's structure: separate groups."""
-    from rths3d.loop import _group_key, scene_with
+    from rths3d.loop import batch_key as _group_key
+    from rths3d.scene import scene_with
 
     sc = load_scene(SCENES / "paper_contact.toml").with_transfer("stewart")
     a = _group_key(scene_with(sc, {"transfer.delay": 0.001}))
@@ -385,7 +387,8 @@ def test_lti_tests_with_different_actuators_step_together():
     """LTI tests differing in actuator delay, servo lag, feed-forward and compensation (none /
     velocity) form one group and each reproduces its own run, with its own predicted delay;
     polynomial compensation and the sensor split groups."""
-    from rths3d.loop import _group_key, scene_with
+    from rths3d.loop import batch_key as _group_key
+    from rths3d.scene import scene_with
 
     sc = load_scene(SCENES / "paper_contact.toml", ["duration=1.5", "experiment.h0=0.002"])
     sets = [{"transfer.delay": 1e-3, "numerical.k": 5e3},
@@ -401,11 +404,13 @@ def test_lti_tests_with_different_actuators_step_together():
                                       "transfer.comp_time": 4e-3})) != key
     assert _group_key(scene_with(sc, {"sensor.kind": "first_order",
                                       "sensor.time_constant": 1e-3})) != key
+    from rths3d.effects.blocks import DelayBlock, LTIBlock
     from rths3d.transfer import build_transfer
-    from rths3d.transfer.actuators import PerTestDelayLine, PerTestLTIActuator
 
     tr = build_transfer(scenes[0], 4, scenes=scenes)
-    assert isinstance(tr.lti, PerTestLTIActuator) and isinstance(tr.delay_line, PerTestDelayLine)
+    # one delay line and one LTI block, each with its own delay / model per test
+    assert [type(b) for b in tr.actuator.blocks] == [DelayBlock, LTIBlock]
+    assert len(set(tr.actuator.blocks[0].delays)) == 4
     batch = run_batch(sc, sets)
     for s, rb in zip(scenes, batch, strict=True):
         r1 = run(s)
@@ -424,7 +429,8 @@ def test_lti_tests_with_different_actuators_step_together():
 def test_stopped_test_in_batch_leaves_the_others_unchanged():
     """A test that diverges inside a batch stops with the same reason and row as alone, and
     its neighbours run on exactly as single runs (its leftover state trips no stop)."""
-    from rths3d.loop import _group_key, scene_with
+    from rths3d.loop import batch_key as _group_key
+    from rths3d.scene import scene_with
 
     base = load_scene(SCENES / "paper_linear.toml", ["duration=3.0", "numerical.m=5.0",
                                                      "transfer.delay=0.01"])
@@ -447,7 +453,7 @@ def test_non_finite_force_stops_alike_in_kernel_and_batch(tmp_path):
     finite'), the NaN sample not kept, so the saved record loads."""
     import warnings
 
-    from rths3d.loop import scene_with
+    from rths3d.scene import scene_with
 
     # an absurdly stiff undamped part: its Euler substeps overflow, F = inf·… + 0·inf = NaN
     sc = load_scene(SCENES / "paper_linear.toml", ["duration=0.5", "experiment.k=1e300",
@@ -553,7 +559,8 @@ def test_malformed_excitation_csv_is_a_config_error(tmp_path, text):
 def test_batched_step_parts_allocate_no_arrays(peak_bytes):
     """One step of the batched numerical substructure (shared and per-test matrices) and of
     the numpy part allocates no array (< 4 kB traced; a (K, 2) array is 32 kB)."""
-    from rths3d.loop import build_numerical, scene_with
+    from rths3d.numerical import build_numerical
+    from rths3d.scene import scene_with
     from rths3d.transfer import build_transfer
 
     K = 2000
@@ -563,13 +570,14 @@ def test_batched_step_parts_allocate_no_arrays(peak_bytes):
     for scenes in ([sc] * K, [scene_with(sc, {"numerical.k": 5e3 + i}) for i in range(K)]):
         num = build_numerical(scenes)
         assert peak_bytes(lambda n=num: n.step(3, f)) < 4096
-    spec = build_transfer(sc, K).specimen
+    spec = build_transfer(sc, K).part
     assert peak_bytes(lambda: spec.advance(z0, z1)) < 4096
 
 
 def test_noisy_tests_of_different_seeds_step_together() -> None:
     """Tests differing only in their sensor seed form one group, each with its own noise."""
-    from rths3d.loop import _group_key, scene_with
+    from rths3d.loop import batch_key as _group_key
+    from rths3d.scene import scene_with
 
     sc = load_scene("paper_contact")
     ps = [{"sensor.noise_std": 5.0, "sensor.seed": s, "duration": 0.5, "transfer.kind": "lti"}

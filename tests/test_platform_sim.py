@@ -370,7 +370,6 @@ def test_batch_translation_path_matches_full_path():
     rows = np.array([0, 2])
     for q in poses:
         cmd = np.tile(q, (2, 1))
-        np.testing.assert_allclose(fast._ik_translation(cmd), full._ik(cmd), atol=1e-15)
         full.step(cmd)
         fast.step(cmd, translation_only=True)
         np.testing.assert_allclose(fast.plate_qpos, full.plate_qpos, atol=1e-12)

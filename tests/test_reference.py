@@ -63,7 +63,7 @@ def test_interface_iteration_needs_two_passes_per_step():
 
 def test_secant_pass_converges_a_mixed_batch_in_two_passes():
     """Secant step: 8 contact tests from k = 250 to 2e6 N/m average ≤ 2.01 passes per step."""
-    from rths3d.loop import scene_with
+    from rths3d.scene import scene_with
 
     sc = load_scene(SCENES / "paper_contact.toml",
                     ["duration=2.0", "experiment.h0=0.002", "excitation.frequency=1.0"])

@@ -9,8 +9,7 @@ from pathlib import Path
 import pytest
 
 from rths3d.errors import ConfigError
-from rths3d.loop import scene_to_dict, scene_with
-from rths3d.scene import load_scene, scene_from_dict
+from rths3d.scene import load_scene, scene_from_dict, scene_to_dict, scene_with
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 

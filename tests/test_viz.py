@@ -280,7 +280,7 @@ def test_headless_client_sees_scene_and_plot_updates_while_test_runs():
     viser-v<version>) receives plate poses and SSP / history data that advance with the
     samples the loop writes; after a restart with the LTI transfer system it follows the new
     run."""
-    from rths3d.loop import scene_with
+    from rths3d.scene import scene_with
     from rths3d.viz.live import LiveRun, load_target
 
     scene = scene_with(load_target("paper_contact"), {"duration": 4.0})
@@ -328,7 +328,7 @@ def test_headless_client_sees_scene_and_plot_updates_while_test_runs():
 
 def test_in_process_live_viewer_follows_the_newest_sample():
     """The in-process viewer of a live run shows the newest sample the loop has published."""
-    from rths3d.loop import scene_with
+    from rths3d.scene import scene_with
     from rths3d.viz.live import LiveRun, load_target
 
     scene = scene_with(load_target("paper_contact"), {"duration": 3.0})
@@ -348,7 +348,7 @@ def test_in_process_live_viewer_follows_the_newest_sample():
 def test_live_run_pauses_resumes_and_restarts_with_another_transfer():
     """Pause holds simulated time, resume continues, and a restart with the LTI transfer
     system and another k_NUM runs a new test whose metadata carries the new values."""
-    from rths3d.loop import scene_with
+    from rths3d.scene import scene_with
     from rths3d.viz.live import LiveRun, load_target
 
     scene = scene_with(load_target("paper_contact"), {"duration": 3.0})

@@ -103,10 +103,10 @@ def run(
     from ..errors import ConfigError
     from ..loop import LoopControl
     from ..loop import run as run_loop
-    from ..scene import TRANSFER_KINDS, load_scene
+    from ..scene import load_scene, transfer_kinds
 
-    if transfer is not None and transfer not in TRANSFER_KINDS:
-        raise ConfigError("--transfer", transfer, f"must be one of {', '.join(TRANSFER_KINDS)}")
+    if transfer is not None and transfer not in transfer_kinds():
+        raise ConfigError("--transfer", transfer, f"must be one of {', '.join(transfer_kinds())}")
     if out is not None and out.suffix.lower() not in (".parquet", ".csv"):
         raise ConfigError("--out", str(out), "must end in .parquet or .csv")
     sc = load_scene(scene, set_)

@@ -42,20 +42,20 @@ def batches_of(spec: SweepSpec) -> list[tuple[str, list[dict[str, Any]]]]:
     """
     from ..scene import load_scene
 
-    def kind_of(fam) -> str | None:
-        if fam.transfer:
-            return fam.transfer
-        if fam.name in spec.scenes:
-            return spec.scenes[fam.name].transfer.kind
-        try:  # the scene sets it; an unreadable scene fails when the batch runs
-            return load_scene(spec.scene_path(fam)).transfer.kind
+    def base_of(fam) -> dict[str, Any]:
+        try:  # an unreadable scene fails when the batch runs
+            scene = spec.scenes.get(fam.name) or load_scene(spec.scene_path(fam))
         except ConfigError:
-            return None
+            return {}
+        settings = scene.params()
+        if fam.transfer:
+            settings["transfer.kind"] = fam.transfer
+        return settings
 
-    kinds = {f.name: kind_of(f) for f in spec.families}
+    bases = {f.name: base_of(f) for f in spec.families}
 
     def key(test: dict[str, Any]) -> str:
-        return batch_group_key(test, kinds[test["family"]])
+        return batch_group_key(test, bases[test["family"]])
 
     b = spec.batch_size
     chunks: list[list[dict[str, Any]]] = []
@@ -80,8 +80,7 @@ def prepare(spec: SweepSpec) -> SweepSpec:
     scene files nor this process's working folder. Bad parameter *values* stay per-test
     ``error`` rows.
     """
-    from ..loop import scene_with
-    from ..scene import load_scene
+    from ..scene import load_scene, scene_with
 
     scenes = {}
     for fam in spec.families:

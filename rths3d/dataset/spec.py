@@ -47,14 +47,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError
-from ..scene import (
-    ACTUATOR_PER_TEST,
-    PER_TEST_COMPENSATION,
-    STEWART_PER_TEST_SERVO,
-    TRANSFER_KINDS,
-)
+from ..transfer import batch_key, transfer_kinds
 
-TRANSFERS = TRANSFER_KINDS
 SWEEP_KEYS = ("name", "duration", "seed", "batch_size", "keep_records")
 FAMILY_KEYS = ("name", "scene", "transfer", "subset", "fixed", "grid", "sample")
 
@@ -193,31 +187,23 @@ def _group_sort_key(params: Mapping[str, Any]) -> str:
     return json.dumps(items, default=str)
 
 
-_STEWART_PER_TEST = tuple(f"transfer.{k}" for k in STEWART_PER_TEST_SERVO)
-_ACTUATOR_PER_TEST = tuple(f"transfer.{k}" for k in ACTUATOR_PER_TEST)
-
-
-def batch_group_key(test: Mapping[str, Any], transfer_kind: str | None = None) -> str:
-    """Tests with equal keys can be stepped together (the loop's batch grouping, on the
-    sweep's parameters): family, and the transfer/sensor/safety/time-grid settings, except
-    the Stewart servo settings that per-test platform models absorb and the actuator settings
-    that the LTI path takes per test (:data:`~rths3d.scene.ACTUATOR_PER_TEST`, compensation
-    ``none``/``velocity``). ``transfer_kind``: the family's transfer system when its scene,
-    not the spec, sets it (default: the test's ``transfer``)."""
-    params = test["params"]
-    kind = test.get("transfer") or transfer_kind
-    if kind == "stewart":
-        tc = params.get("transfer.timeconst", 0.0)
-        if isinstance(tc, bool) or not isinstance(tc, int | float):
-            raise ConfigError(f"family {test['family']!r} transfer.timeconst", tc,
-                              "must be a number (s)")
-        params = {k: (float(v) > 0 if k == "transfer.timeconst" else v)
-                  for k, v in params.items() if k not in _STEWART_PER_TEST}
-    elif kind in ("lti", "delay"):
-        params = {k: ("|".join(PER_TEST_COMPENSATION) if k == "transfer.compensation"
-                      and v in PER_TEST_COMPENSATION else v)
-                  for k, v in params.items() if k not in _ACTUATOR_PER_TEST}
-    return f"{test['family']}|{_group_sort_key(params)}"
+def batch_group_key(test: Mapping[str, Any], base: Mapping[str, Any]) -> str:
+    """Tests with equal keys can be stepped together: the family, and the transfer system's
+    own rule (:func:`rths3d.transfer.batch_key`, the one the loop groups by) on the test's
+    parameters over its family's base-scene settings ``base``
+    (:meth:`~rths3d.config.Scene.params`). A test whose settings the rule cannot read keeps a
+    key of its own (it fails, with its reason, when its batch runs)."""
+    settings = {**base, **test["params"]}
+    if test.get("transfer"):
+        settings["transfer.kind"] = test["transfer"]
+    try:
+        key: Any = batch_key(settings)
+    except ConfigError as exc:
+        raise ConfigError(f"family {test['family']!r} {exc.field}", exc.value,
+                          exc.limit) from None
+    except (TypeError, ValueError):
+        key = ("unreadable", _group_sort_key(test["params"]))
+    return f"{test['family']}|{key!r}"
 
 
 # ---------------------------------------------------------------------------- parsing
@@ -258,8 +244,8 @@ def _parse_family(d: Mapping[str, Any], where: str) -> Family:
     name = _require(d, "name", where, str)
     scene = _require(d, "scene", where, str)
     transfer = d.get("transfer")
-    if transfer is not None and transfer not in TRANSFERS:
-        raise ConfigError(f"{where}.transfer", transfer, f"one of {', '.join(TRANSFERS)}")
+    if transfer is not None and transfer not in transfer_kinds():
+        raise ConfigError(f"{where}.transfer", transfer, f"one of {', '.join(transfer_kinds())}")
     grid: dict[str, tuple[Any, ...]] = {}
     for k, v in _table(d, "grid", where).items():
         vals = v if isinstance(v, list) else [v]

@@ -113,6 +113,12 @@ class Effect:
         """Edit the output signals in place (output stages)."""
         raise NotImplementedError
 
+    def block(self, K: int, n: int, dt: float, value: float) -> Any:
+        """The per-step :class:`~rths3d.effects.blocks.Block` of a signal effect at ``value``
+        (K tests × n channels, step ``dt``): what the loop's chains apply and what
+        :meth:`apply_output` runs over a replay. None for effects of other stages."""
+        return None
+
     # ------------------------------------------------------------------ fitting help
     def initial_guess(self, measured: dict[str, np.ndarray], model: dict[str, np.ndarray],
                       command: np.ndarray, dt: float) -> float | None:

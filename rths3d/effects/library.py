@@ -22,9 +22,9 @@ import math
 from typing import Any
 
 import numpy as np
-from scipy.signal import lfilter
 
 from .base import Effect, Param, register
+from .blocks import Block, DelayBlock, GainBlock, LagBlock, OffsetBlock, run_blocks
 
 Z = "z_meas.z"
 FZ = "f_meas.z"
@@ -42,18 +42,23 @@ def _channels(out: dict[str, np.ndarray], names: tuple[str, ...]) -> list[str]:
     return [c for c in (names or tuple(out)) if c in out]
 
 
+def _from_rest(block: Block, x: np.ndarray) -> np.ndarray:
+    """The block applied to ``x`` as it acts on a bench at rest on x[0]: on the deviation
+    from the first sample (a delay holds it, a lag starts on it)."""
+    x = np.asarray(x, dtype=float)
+    return run_blocks([block], x - x[0]) + x[0]
+
+
 def delay_signal(x: np.ndarray, dt: float, tau: float) -> np.ndarray:
-    """``x(t − τ)`` by linear interpolation; the first sample is held for ``t < τ``."""
-    shift = tau / dt
-    idx = np.arange(x.shape[0]) - shift
-    return np.interp(idx, np.arange(x.shape[0]), x)
+    """``x(t − τ)`` by linear interpolation; the first sample is held for ``t < τ``
+    (the loop's :class:`~rths3d.effects.blocks.DelayBlock`)."""
+    return _from_rest(DelayBlock(1, 1, tau, dt), x)
 
 
 def lowpass_signal(x: np.ndarray, dt: float, tc: float) -> np.ndarray:
-    """First-order low-pass of time constant ``tc`` (s), 1/(1 + s·tc), started at rest on x[0]."""
-    a = math.exp(-dt / tc)
-    y, _ = lfilter([1.0 - a], [1.0, -a], x, zi=[a * x[0]])
-    return y
+    """First-order low-pass of time constant ``tc`` (s), 1/(1 + s·tc), started at rest on x[0]
+    (the loop's :class:`~rths3d.effects.blocks.LagBlock`)."""
+    return _from_rest(LagBlock(1, 1, tc, dt), x)
 
 
 # ---------------------------------------------------------------------------- signal effects
@@ -64,6 +69,9 @@ class TransportDelay(Effect):
     param = Param("tau", "s", 0.0, 0.0, 0.05, 2e-3, "pure transport delay of the whole loop")
     description = "Transport delay between command and achieved motion (all outputs shift)."
     signature = "phase lag growing linearly with frequency; residual ∝ velocity"
+
+    def block(self, K: int, n: int, dt: float, value: float) -> Block:
+        return DelayBlock(K, n, value, dt)
 
     def apply_output(self, out, dt, value, rng=None):
         for c in _channels(out, self.channels):
@@ -77,6 +85,9 @@ class ActuatorLag(Effect):
     param = Param("tc", "s", 0.0, 0.0, 0.05, 2e-3, "time constant of the actuator bandwidth")
     description = "Limited actuator bandwidth: first-order lag 1/(1 + s·tc) of the motion."
     signature = "magnitude roll-off and a phase lag that saturates at 90°"
+
+    def block(self, K: int, n: int, dt: float, value: float) -> Block:
+        return LagBlock(K, n, value, dt)
 
     def apply_output(self, out, dt, value, rng=None):
         for c in _channels(out, self.channels):
@@ -92,6 +103,9 @@ class FtsLowpass(Effect):
     signature = "force lags and rolls off, displacement and leg force unaffected"
     channels = (FZ, FX)
 
+    def block(self, K: int, n: int, dt: float, value: float) -> Block:
+        return LagBlock(K, n, value, dt)
+
     def apply_output(self, out, dt, value, rng=None):
         for c in _channels(out, self.channels):
             out[c] = lowpass_signal(out[c], dt, value)
@@ -106,9 +120,12 @@ class FtsGain(Effect):
     signature = "force residual ∝ the force itself; leg force unaffected"
     channels = (FZ,)
 
+    def block(self, K: int, n: int, dt: float, value: float) -> Block:
+        return GainBlock(K, n, 1.0 + value)
+
     def apply_output(self, out, dt, value, rng=None):
         if FZ in out:
-            out[FZ] = out[FZ] * (1.0 + value)
+            out[FZ] = run_blocks([self.block(1, 1, dt, value)], out[FZ])
 
     def initial_guess(self, measured, model, command, dt):
         f = model.get(FZ)
@@ -126,9 +143,12 @@ class FtsOffset(Effect):
     signature = "constant force residual"
     channels = (FZ,)
 
+    def block(self, K: int, n: int, dt: float, value: float) -> Block:
+        return OffsetBlock(K, n, value)
+
     def apply_output(self, out, dt, value, rng=None):
         if FZ in out:
-            out[FZ] = out[FZ] + value
+            out[FZ] = run_blocks([self.block(1, 1, dt, value)], out[FZ])
 
     def initial_guess(self, measured, model, command, dt):
         if FZ not in measured or FZ not in model:

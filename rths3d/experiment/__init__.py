@@ -1,19 +1,67 @@
-"""Experimental parts: MJCF fragments for the FTS site and vectorised numpy models.
+"""Experimental parts: one class per kind (contact, linear, multi-DOF), registered by name.
 
-(a) the paper's contact system (Fig. 4), (b) its linear part (Fig. 5, Table 2), (c) a
-multi-DOF bar (heave + pitch) with contact. ``Specimen1D`` is the numpy model of (a)/(b) for
-the fast LTI path; ``MujocoSpecimen`` runs any part in MuJoCo behind a prescribed mount.
+Each part owns its MJCF fragments for the FTS site, its interface matrices and, where it has
+one, a fast numpy/numba model (:class:`Specimen1D` for the 1-D parts); any part runs in
+MuJoCo behind a prescribed mount (:class:`MujocoSpecimen`). :func:`build_part_model` is the
+one builder of a part model for the transfer systems and the reference. A new part is one
+subclass of :class:`ExperimentalPart` in one file, decorated with :func:`register_part`.
 """
 
-from .mjcf import interface_matrices, payload_xml, specimen_model_xml, world_xml
+from ..config import ExperimentConfig
+from .base import (
+    PARTS,
+    ExperimentalPart,
+    PartModel,
+    has_numpy_model,
+    make_part,
+    part_class,
+    part_kinds,
+    register_part,
+    uses_numpy,
+)
+from .build import build_part_model
+from .contact import ContactPart
+from .linear import LinearPart
+from .mjcf import specimen_model_xml
 from .mujoco_specimen import MujocoSpecimen
+from .multidof import MultiDofPart
 from .specimen import Specimen1D
 
 __all__ = [
+    "PARTS",
+    "ContactPart",
+    "ExperimentalPart",
+    "LinearPart",
     "MujocoSpecimen",
+    "MultiDofPart",
+    "PartModel",
     "Specimen1D",
+    "build_part_model",
+    "has_numpy_model",
     "interface_matrices",
+    "make_part",
+    "part_class",
+    "part_kinds",
     "payload_xml",
+    "register_part",
     "specimen_model_xml",
+    "uses_numpy",
     "world_xml",
 ]
+
+
+def payload_xml(cfg: ExperimentConfig) -> str:
+    """Bodies of the part of ``cfg`` in the FTS site frame (see
+    :meth:`ExperimentalPart.payload_xml`)."""
+    return make_part(cfg).payload_xml()
+
+
+def world_xml(cfg: ExperimentConfig, site_pos: tuple[float, float, float]) -> str:
+    """World-fixed parts of ``cfg`` for an FTS site at ``site_pos`` (m)."""
+    return make_part(cfg).world_xml(site_pos)
+
+
+def interface_matrices(cfg: ExperimentConfig, dofs: tuple[str, ...] = ()
+                       ) -> tuple[list[list[float]], list[list[float]]]:
+    """k_EXP and m_EXP of the part of ``cfg`` (see :meth:`ExperimentalPart.interface_matrices`)."""
+    return make_part(cfg).interface_matrices()

@@ -20,7 +20,8 @@ import mujoco
 import mujoco.batch
 import numpy as np
 
-from ..scene import ExperimentConfig
+from ..config import ExperimentConfig
+from .base import make_part
 from .mjcf import MOUNT_ARMATURE, specimen_model_xml
 
 _ORDER = ("x", "y", "z", "rz", "ry", "rx")
@@ -31,6 +32,9 @@ class MujocoSpecimen:
 
     ``cfgs``: one :class:`ExperimentConfig` per test (or one for all).
     """
+
+    tolerance = 1e-9
+    """Reference convergence (m, rad): the contact solver's reproducibility."""
 
     def __init__(self, cfgs: ExperimentConfig | Sequence[ExperimentConfig], dofs: tuple[str, ...],
                  dt: float, K: int = 1, nthread: int = 0):
@@ -43,7 +47,7 @@ class MujocoSpecimen:
         self.substeps = cfgs[0].substeps
         h = self.dt / self.substeps
         self.h = h
-        xmls = [specimen_model_xml(c, self.dofs, h) for c in cfgs]
+        xmls = [specimen_model_xml(make_part(c), c.kind, self.dofs, h) for c in cfgs]
         self.models = [mujoco.MjModel.from_xml_string(x) for x in dict.fromkeys(xmls)]
         lookup = {x: self.models[i] for i, x in enumerate(dict.fromkeys(xmls))}
         self.model = self.models[0]
@@ -105,6 +109,10 @@ class MujocoSpecimen:
             self._time[:] = s[2]
         else:
             self.batch.d.time = float(s[2][0])
+
+    def compiled(self) -> None:
+        """MuJoCo is stepped from Python: no compiled kernel (the loop's Python driver)."""
+        return None
 
     def advance(self, z0: np.ndarray, z1: np.ndarray) -> np.ndarray:
         """Drive the mount from ``z0`` to ``z1`` (K, n_if) linearly over ΔT; return F'_m."""

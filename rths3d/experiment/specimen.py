@@ -18,6 +18,48 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..effects.blocks import block_kernel
+
+
+@block_kernel
+def euler_kernel(p, s, z0, z1, f):
+    """One interface step of K parts (semi-implicit Euler substeps, see the module
+    docstring). ``p`` rows: [k h/m, d h/m, k_c h/m, d_c h/m, h0 (1e300: none), k, d, ΔT,
+    substeps, h]; ``s`` rows: [x, ẋ, previous mount position]. The arithmetic is that of the
+    numpy model, operation for operation."""
+    for r in range(z0.shape[0]):
+        kh, dh, kch, dch, h0 = p[r, 0], p[r, 1], p[r, 2], p[r, 3], p[r, 4]
+        k, d, dt, ns, h = p[r, 5], p[r, 6], p[r, 7], int(p[r, 8]), p[r, 9]
+        a0 = z0[r]
+        a1 = z1[r]
+        dz = a1 - a0
+        vm = dz / dt
+        dz = dz / ns
+        x = s[r, 0]
+        v = s[r, 1]
+        for j in range(ns):
+            # dv = h/m · (k (z_m − x) + d (ż_m − ẋ) − F_c), F_c ≥ 0 only in contact
+            if j:
+                dv = (a0 + j * dz) - x
+            else:
+                dv = a0 - x
+            dv *= kh
+            if dh != 0.0:
+                dv += dh * (vm - v)
+            pen = x - h0
+            if pen > 0.0:
+                fc = kch * pen
+                fc += dch * v
+                if fc > 0.0:
+                    dv -= fc
+            v += dv
+            x += v * h
+        s[r, 0] = x
+        s[r, 1] = v
+        s[r, 2] = a1
+        # F_m at the end of the step: k (z'_{n+1} − x) + d (ż' − ẋ)
+        f[r] = k * (a1 - x) + d * (vm - v)
+
 
 class Specimen1D:
     """K one-DOF specimens stepped together.
@@ -27,6 +69,8 @@ class Specimen1D:
     """
 
     n_if = 1
+    tolerance = 1e-11
+    """Reference convergence (m): the RK4 model reproduces itself to rounding."""
 
     def __init__(self, K: int, m, k, d=0.0, h0=np.inf, k_contact=1e5, d_contact=0.0, *,
                  dt: float = 1e-3, substeps: int = 4, method: str = "euler"):
@@ -37,12 +81,13 @@ class Specimen1D:
         self.dt = float(dt)
         self.substeps = int(substeps)
         self.method = method
-        self.x = np.zeros(K)
-        self.v = np.zeros(K)
+        # state rows [x, ẋ, previous mount position]; x, v are views of it
+        self.state = np.zeros((K, 3))
+        self.x = self.state[:, 0]
+        self.v = self.state[:, 1]
+        self._zm_prev = self.state[:, 2]
         self.f = np.zeros((K, 1))
-        self.f_contact = np.zeros(K)
         self._inv_m = 1.0 / self.m
-        self._zm_prev = np.zeros(K)
         h = self.dt / self.substeps
         # per-substep velocity increments per unit displacement / velocity (no divisions
         # in the hot loop)
@@ -50,27 +95,22 @@ class Specimen1D:
         self._dh = self.d * h / self.m
         self._kch = self.kc * h / self.m
         self._dch = self.dc * h / self.m
-        self._has_d = bool(np.any(self.d != 0.0))
-        self._has_contact = bool(np.any(np.isfinite(self.h0)))
         self._h0 = np.where(np.isfinite(self.h0), self.h0, 1e300)
-        self._fc = np.zeros(K)
-        self._pen = np.zeros(K)
-        self._dv = np.zeros(K)
-        # step buffers of the Euler path (no allocation per step or substep)
-        self._vm = np.zeros(K)
-        self._dz = np.zeros(K)
-        self._zm = np.zeros(K)
-        self._tmp = np.zeros(K)
-        self._inside = np.zeros(K, dtype=bool)
-        self._inside_f = np.zeros(K)  # the same as 0.0/1.0 (float × bool buffers in numpy)
+        self.params = np.ascontiguousarray(np.stack([
+            self._kh, self._dh, self._kch, self._dch, self._h0, self.k, self.d,
+            np.full(K, self.dt), np.full(K, float(self.substeps)), np.full(K, h)], axis=1))
 
     def reset(self) -> None:
         """Rest at static equilibrium."""
-        self.x[:] = 0.0
-        self.v[:] = 0.0
+        self.state[:] = 0.0
         self.f[:] = 0.0
-        self.f_contact[:] = 0.0
-        self._zm_prev[:] = 0.0
+
+    def compiled(self):
+        """(kernel, params, state) of the Euler model for the compiled loop; None for RK4
+        (the reference's model, stepped from Python)."""
+        if self.method != "euler":
+            return None
+        return euler_kernel, self.params, self.state
 
     def get_state(self) -> np.ndarray:
         """Copy of (x, v, previous mount position), shape (3, K)."""
@@ -94,38 +134,8 @@ class Specimen1D:
         h = self.dt / ns
         x, v = self.x, self.v
         if self.method == "euler":
-            tmp = self._tmp
-            dz = np.subtract(a1, a0, out=self._dz)
-            vm = np.divide(dz, self.dt, out=self._vm)
-            dz /= ns
-            fc, pen, dv, zm = self._fc, self._pen, self._dv, self._zm
-            for j in range(ns):
-                # dv = h/m · (k (z_m − x) + d (ż_m − ẋ) − F_c), F_c ≥ 0 only in contact
-                if j:
-                    np.multiply(j, dz, out=zm)
-                    np.add(a0, zm, out=zm)
-                    np.subtract(zm, x, out=dv)
-                else:
-                    np.subtract(a0, x, out=dv)
-                dv *= self._kh
-                if self._has_d:
-                    dv += np.multiply(self._dh, np.subtract(vm, v, out=tmp), out=tmp)
-                if self._has_contact:
-                    np.subtract(x, self._h0, out=pen)
-                    np.multiply(self._kch, pen, out=fc)
-                    fc += np.multiply(self._dch, v, out=tmp)
-                    np.maximum(fc, 0.0, out=fc)
-                    np.greater(pen, 0.0, out=self._inside)
-                    np.copyto(self._inside_f, self._inside)
-                    fc *= self._inside_f
-                    dv -= fc
-                v += dv
-                x += np.multiply(v, h, out=tmp)
-            # F_m at the end of the step: k (z'_{n+1} − x) + d (ż' − ẋ)
-            f = self.f[:, 0]
-            np.multiply(self.k, np.subtract(a1, x, out=f), out=f)
-            f += np.multiply(self.d, np.subtract(vm, v, out=tmp), out=tmp)
-            self._zm_prev[:] = a1
+            euler_kernel(self.params, self.state, np.ascontiguousarray(a0),
+                         np.ascontiguousarray(a1), self.f[:, 0])
             return self.f
         vm = (a1 - a0) / self.dt
         if self.K == 1:

@@ -22,9 +22,17 @@ from .modal import (
 )
 from .nonlinear import CubicSpringSubstructure
 
+
+def build_numerical(scenes, method: str | None = None) -> LinearSubstructure:
+    """The :class:`LinearSubstructure` of K scenes, their loads included (see
+    :meth:`LinearSubstructure.from_scenes`)."""
+    return LinearSubstructure.from_scenes(scenes, method)
+
+
 __all__ = [
     "CubicSpringSubstructure",
     "Discretisation",
+    "build_numerical",
     "LinearSubstructure",
     "NumericalFactory",
     "NumericalSubstructure",

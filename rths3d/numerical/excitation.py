@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..config import ExcitationConfig
 from ..errors import ConfigError
-from ..scene import ExcitationConfig
 
 
 def excitation_signal(exc: ExcitationConfig, t: np.ndarray, h0: float = float("nan")

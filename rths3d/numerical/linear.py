@@ -15,7 +15,7 @@ and by the scene with the experimental part's spring added).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
@@ -23,10 +23,12 @@ import numpy as np
 import scipy.linalg
 
 from ..errors import ConfigError
+from ._kernels import linear_step as _linear_step
+from .excitation import load_history
 from .modal import fastest_eigenfrequency
 
 if TYPE_CHECKING:
-    from ..scene import Scene
+    from ..config import Scene
 
 
 @dataclass(frozen=True)
@@ -122,6 +124,9 @@ class NumericalSubstructure(Protocol):
     z: np.ndarray
     zdot: np.ndarray
     x: np.ndarray
+    p: np.ndarray
+    """The load p(t_k) per test, (K, N+1, n) (N, N·m), for the record's ``p_num``."""
+    gamma: np.ndarray
 
     def reset(self) -> None: ...
 
@@ -130,6 +135,15 @@ class NumericalSubstructure(Protocol):
     def get_state(self) -> np.ndarray: ...
 
     def set_state(self, state: np.ndarray) -> None: ...
+
+    def halt(self, k: int) -> None:
+        """Test k stopped: it rests from now on (no load, zero state); the others go on."""
+
+    def meta(self, test: int = 0) -> dict: ...
+
+    def compiled(self) -> tuple | None:
+        """The arrays of the compiled loop's linear step (:func:`rths3d.stepping.linear_step`)
+        or None (stepped from Python)."""
 
 
 NumericalFactory = Callable[[list["Scene"]], NumericalSubstructure]
@@ -199,21 +213,6 @@ class LinearSubstructure:
         self.p = p
         self.Czx = G.T @ self.Cx          # (n_if, S)
         self.Czv = G.T @ self.Cv
-        if shared:
-            self._AdT = np.ascontiguousarray(self.Ad[0].T)
-            self._BfT = np.ascontiguousarray(self.Bf_hold[0].T)
-            # step buffers: the held-force loop allocates nothing per step
-            self._s_next = np.zeros((self.K_tests, 2 * self.n))
-            self._fB = np.zeros((self.K_tests, 2 * self.n))
-            # the step's load, contiguous (adding the strided P[:, n] buffers inside numpy)
-            self._Pn = np.zeros((self.K_tests, 2 * self.n))
-        # per-test matrices, small state: entry-wise over tests beats K tiny matmuls (5×)
-        self._elem = (not shared) and 2 * self.n <= 6
-        if self._elem:
-            self._AdC = np.ascontiguousarray(self.Ad.transpose(1, 2, 0))       # (S, S, K)
-            self._BfC = np.ascontiguousarray(self.Bf_hold.transpose(1, 2, 0))  # (S, nd, K)
-            self._new = np.zeros((2 * self.n, self.K_tests))
-            self._tmp = np.zeros(self.K_tests)
         self.s = np.zeros((self.K_tests, 2 * self.n))
         self.z = np.zeros((self.K_tests, self.n_if))
         self.zdot = np.zeros((self.K_tests, self.n_if))
@@ -221,6 +220,10 @@ class LinearSubstructure:
         self._CzxT = np.ascontiguousarray(self.Czx.T)
         self._CzvT = np.ascontiguousarray(self.Czv.T)
         self._CxT = np.ascontiguousarray(self.Cx.T)
+        # the compiled step's arrays (contiguous, the step allocates nothing)
+        c = np.ascontiguousarray
+        self._kernel_args = (c(self.Ad), c(self.Bf_hold), self.P, self.s,
+                             np.zeros_like(self.s), c(self.Czx), c(self.Czv), c(self.Cx))
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -249,34 +252,46 @@ class LinearSubstructure:
 
     # ------------------------------------------------------------------ stepping
     def step(self, n: int, f_n: np.ndarray, f_next: np.ndarray | None = None) -> None:
-        """Advance from t_n to t_{n+1} (see :class:`NumericalSubstructure`)."""
-        if f_next is None and self.shared:
-            s = np.matmul(self.s, self._AdT, out=self._s_next)
-            np.copyto(self._Pn, self.P[:, n])
-            s += self._Pn
-            s -= np.matmul(f_n, self._BfT, out=self._fB)
-        elif f_next is None and self._elem:
-            S = self._new.shape[0]
-            A, B, new, st, tmp = self._AdC, self._BfC, self._new, self.s, self._tmp
-            Pn = self.P[:, n]
-            for i in range(S):
-                row = new[i]
-                np.multiply(A[i, 0], st[:, 0], out=row)
-                for j in range(1, S):
-                    row += np.multiply(A[i, j], st[:, j], out=tmp)
-                row += Pn[:, i]
-                for d in range(self.n_if):
-                    row -= np.multiply(B[i, d], f_n[:, d], out=tmp)
-            s = new.T
-        else:
-            s = np.matmul(self.Ad, self.s[..., None])[..., 0] + self.P[:, n]
-            if f_next is None:
-                s -= np.matmul(self.Bf_hold, f_n[..., None])[..., 0]
-            else:
-                s -= np.matmul(self.Bf0, f_n[..., None])[..., 0]
-                s -= np.matmul(self.Bf1, f_next[..., None])[..., 0]
+        """Advance from t_n to t_{n+1} (see :class:`NumericalSubstructure`).
+
+        The held-force step (the loop's) is the compiled loop's own kernel
+        (:func:`rths3d.stepping.linear_step`); the interpolated-force step (the reference's,
+        implicit in F_{n+1}) is batched numpy."""
+        if f_next is None:
+            Ad, Bf, P, s, s_next, Czx, Czv, Cx = self.compiled()
+            _linear_step(Ad, Bf, P, n, np.ascontiguousarray(f_n, dtype=float), s, s_next, Czx,
+                         Czv, Cx, self.z, self.zdot, self.x)
+            return
+        s = np.matmul(self.Ad, self.s[..., None])[..., 0] + self.P[:, n]
+        s -= np.matmul(self.Bf0, f_n[..., None])[..., 0]
+        s -= np.matmul(self.Bf1, f_next[..., None])[..., 0]
         self.s[:] = s
         self._outputs()
+
+    def halt(self, k: int) -> None:
+        """Test k stopped: it rests from now on (no load, zero state)."""
+        self.P[k] = 0.0
+        self.s[k] = 0.0
+
+    def compiled(self) -> tuple:
+        """(A_d, B_f, P, s, s_next, C_zx, C_zv, C_x) for :func:`rths3d.stepping.linear_step`:
+        the held-force recurrence with the matrices shared (first axis 1) or per test."""
+        return self._kernel_args
+
+    @classmethod
+    def from_scenes(cls, scenes: Sequence[Scene], method: str | None = None
+                    ) -> LinearSubstructure:
+        """The substructures of K scenes with their loads (``method``: the scenes'
+        integrator by default)."""
+        base = scenes[0]
+        t = np.arange(base.n_steps + 1) * base.dt
+        M = np.array([s.numerical.M for s in scenes])
+        C = np.array([s.numerical.C for s in scenes])
+        K = np.array([s.numerical.K for s in scenes])
+        p = np.stack([load_history(s.excitation, M[i], C[i], K[i], t, s.experiment.h0)
+                      for i, s in enumerate(scenes)])
+        return cls(M, C, K, np.array(base.numerical.gamma), p, base.dt,
+                   method or base.numerical.integrator)
 
     def meta(self, test: int = 0) -> dict:
         """Record metadata ``numerical``: M, C, K, Γ (SI) of one test."""

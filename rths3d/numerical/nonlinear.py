@@ -15,6 +15,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from .excitation import load_history
+
 
 class CubicSpringSubstructure:
     """K single-DOF Duffing oscillators stepped together (SI: kg, N·s/m, N/m, N/m³).
@@ -47,8 +49,6 @@ class CubicSpringSubstructure:
     def from_scenes(cls, scenes: Sequence, k3: float | Sequence[float] = 0.0
                     ) -> CubicSpringSubstructure:
         """Build from one-DOF scenes (their m, c, k and excitation) and cubic stiffness k₃."""
-        from .excitation import load_history
-
         base = scenes[0]
         t = np.arange(base.n_steps + 1) * base.dt
         p = np.stack([load_history(s.excitation, s.numerical.M, s.numerical.C, s.numerical.K,
@@ -65,6 +65,10 @@ class CubicSpringSubstructure:
         self.p = self.p.copy()
         self.p[k] = 0.0
         self.s[k] = 0.0
+
+    def compiled(self) -> None:
+        """Stepped from Python (RK4 of a cubic spring): no compiled kernel."""
+        return None
 
     def get_state(self) -> np.ndarray:
         return self.s.copy()

@@ -1,12 +1,12 @@
-"""Stepping the simulated platform at the interface rate: one test (fast path) or K at once.
+"""Stepping the simulated platform at the interface rate, K tests at once (K = 1 included).
 
-:class:`PlatformSim` is what the vRTHS loop drives at 1 kHz: ``step(x, y, z, rx, ry, rz)``
-takes the commanded pose (floats, relative to home), computes leg set-points (inverse
-kinematics, gravity compensation, velocity feed-forward), advances MuJoCo by one interface
-step and checks the safety limits. Reads (``pose``, ``leg_lengths``, ``leg_forces``,
-``wrench``, ``interface_wrench``) are computed on demand from precomputed views.
-
-:class:`PlatformBatch` does the same for K tests with ``mujoco.batch.Batch``.
+:class:`PlatformBatch` is what the vRTHS loop drives at 1 kHz: ``step(poses)`` takes the
+commanded poses (K, 6) relative to home, computes the leg set-points (inverse kinematics,
+gravity compensation, velocity feed-forward) and checks the command limits in one compiled
+kernel, advances MuJoCo by one interface step (``mujoco.batch.Batch`` for K > 1, one
+``MjData`` for K = 1, where a thread pool's dispatch costs more than the step) and checks
+the measured limits. :class:`PlatformSim` is the same code for one platform with float
+poses and a :class:`~rths3d.errors.SafetyStop` raised at a limit.
 
 Timing convention: MuJoCo evaluates sensors (and actuator forces) at the start of a physics
 step, so after ``step`` the FTS wrench and leg forces describe the state one physics step
@@ -19,10 +19,12 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import mujoco
+import mujoco.batch
 import numpy as np
 
-from ..errors import SafetyStop
-from .kinematics import ScalarIK
+from ..effects.blocks import njit
+from ..errors import ConfigError, SafetyStop
 from .model import PlatformConfig, build_model
 
 __all__ = ["PlatformBatch", "PlatformSim", "StaticState", "static_state"]
@@ -58,8 +60,6 @@ class _Ids:
     """Indices into the MuJoCo arrays, resolved once by name."""
 
     def __init__(self, model) -> None:
-        import mujoco
-
         self.slide_qpos = np.array([model.jnt_qposadr[model.joint(f"leg{i}_slide").id]
                                     for i in range(6)])
         self.slide_dof = np.array([model.jnt_dofadr[model.joint(f"leg{i}_slide").id]
@@ -83,7 +83,6 @@ class _Ids:
         self.anchor_site = [model.site(f"plate_anchor{i}").id for i in range(6)]
         self.contiguous_slides = bool(np.all(np.diff(self.slide_qpos) ==
                                              self.slide_qpos[1] - self.slide_qpos[0]))
-        del mujoco
 
 
 def static_state(config: PlatformConfig, model, data, ids: _Ids | None = None) -> StaticState:
@@ -94,8 +93,6 @@ def static_state(config: PlatformConfig, model, data, ids: _Ids | None = None) -
     and plate) at rest, where ``qfrc_bias`` holds the gravity of the plate *and* of everything
     mounted on it. Exact for a payload at rest.
     """
-    import mujoco
-
     ids = ids or _Ids(model)
     data.qvel[:] = 0.0
     mujoco.mj_forward(model, data)
@@ -152,313 +149,148 @@ def plate_pose(q: np.ndarray, home_height: float) -> np.ndarray:
     return out
 
 
-def _make_step(sim: PlatformSim):
-    """Generate the unrolled 1 kHz step function of ``sim`` (its constants baked in).
 
-    Plain-Python arithmetic on floats with the geometry as literals is the cheapest way to do
-    inverse kinematics, limit checks and the set-point in CPython (small-array numpy costs
-    several µs per call); the function is regenerated at every reset, when the
-    gravity-compensation offsets change.
+@njit
+def leg_setpoints(poses, b, p, hh, home, off, ffg, Lprev, L, ctrl, a0, half, vdt, run):
+    """Inverse kinematics, command limits and leg set-points of K platforms.
+
+    Leg i of test k: L = |t + R p_i − b_i| with R = Rz(rz) Ry(ry) Rx(rx) and t the plate
+    position (home height ``hh`` added), the set-point ``L − (L_home − offset) + g_ff·ΔL``
+    (gravity compensation, velocity feed-forward g_ff = kv/(kp ΔT)) written to
+    ``ctrl[k, a0 + i]`` for the tests in ``run``. Returns the number of running tests whose
+    command leaves the stroke (±``half``) or the speed (|ΔL| ≤ ``vdt``); those keep their
+    set-point and ``Lprev`` (the caller stops them).
     """
-    import mujoco
-
-    g = sim.config.geometry
-    b = g.base_anchors()
-    p = g.top_anchors()
-    home = sim._home
-    off = sim._off
-    dt = sim._dt
-    lines = [
-        "def step(x, y, z, rx, ry, rz):",
-        "    cx = cos(rx); sx = sin(rx); cy = cos(ry); sy = sin(ry); cz = cos(rz); sz = sin(rz)",
-        "    r00 = cz * cy; r01 = cz * sy * sx - sz * cx",
-        "    r10 = sz * cy; r11 = sz * sy * sx + cz * cx",
-        "    r20 = -sy; r21 = cy * sx",
-        f"    tz = z + {g.home_height!r}",
-    ]
-    for i in range(6):
-        px, py = float(p[i, 0]), float(p[i, 1])
-        bx, by, bz = (float(v) for v in b[i])
-        lines += [
-            f"    lx = x + r00 * {px!r} + r01 * {py!r} - {bx!r}",
-            f"    ly = y + r10 * {px!r} + r11 * {py!r} - {by!r}",
-            f"    lz = tz + r20 * {px!r} + r21 * {py!r} - {bz!r}",
-            f"    L{i} = sqrt(lx * lx + ly * ly + lz * lz)",
-        ]
-    lines.append("    p0, p1, p2, p3, p4, p5 = prev")
-    lines += [f"    d{i} = L{i} - p{i}" for i in range(6)]
-    lo = [h - sim._smax for h in home]
-    hi = [h + sim._smax for h in home]
-    vd = sim._vmax * dt
-    conds = " and ".join(f"{lo[i]!r} <= L{i} <= {hi[i]!r} and {-vd!r} <= d{i} <= {vd!r}"
-                         for i in range(6))
-    lines += [
-        f"    if not ({conds}):",
-        "        check_command((L0, L1, L2, L3, L4, L5))",
-        "    ctrl[:] = (" + ", ".join(
-            f"L{i} - {home[i] - off[i]!r} + {sim._ffg!r} * d{i}" for i in range(6)) + ")",
-        "    prev[:] = lcmd[:] = (L0, L1, L2, L3, L4, L5)",
-        "    mj_step(model, data, nsub)",
-        "    count[0] += 1",
-        "    if warn.number != count[1]:",
-        "        divergence()",
-        "    q0, q1, q2, q3, q4, q5 = slide_q.tolist()",
-        "    v0, v1, v2, v3, v4, v5 = slide_v.tolist()",
-        "    f0, f1, f2, f3, f4, f5 = force.tolist()",
-        # chained comparisons on floats: ~3x cheaper than max()/min() over lists
-        "    if not (" + " and ".join(
-            f"{-lim!r} <= {v}{i} <= {lim!r}"
-            for v, lim in (("q", sim._smax), ("v", sim._vmax), ("f", sim._fmax))
-            for i in range(6)) + "):",
-        "        check_measured(slide_q.tolist(), slide_v.tolist(), force.tolist())",
-    ]
-    env = {
-        "cos": math.cos, "sin": math.sin, "sqrt": math.sqrt, "prev": sim._Lprev,
-        "lcmd": sim._lcmd, "ctrl": sim._ctrl, "mj_step": mujoco.mj_step, "model": sim.model,
-        "data": sim.data, "nsub": sim._nsub, "count": sim._count, "warn": sim._warn,
-        "slide_q": sim._slide_q, "slide_v": sim._slide_v, "force": sim._force,
-        "check_command": sim._check_command, "check_measured": sim._check_measured,
-        "divergence": sim._divergence,
-    }
-    exec(compile("\n".join(lines), "<rths3d.platform.sim step>", "exec"), env)
-    return env["step"]
-
-
-class PlatformSim:
-    """One simulated platform stepped at the interface rate ΔT = ``config.dt``.
-
-    Parameters
-    ----------
-    config:
-        Platform configuration (geometry, actuators, step).
-    payload_xml, world_xml:
-        MJCF fragments: the experimental part on the FTS, extra world bodies.
-    settle:
-        Simulated time (s) held at home during :meth:`reset` so the chain and the payload
-        settle before the test starts.
-
-    After ``reset()``, call ``step(x, y, z, rx, ry, rz)`` once per ΔT with the commanded pose
-    (m, rad, relative to home). ``step`` raises :class:`~rths3d.errors.SafetyStop` when a
-    commanded leg leaves its stroke or speed limit (before stepping), when a measured leg
-    leaves its stroke, speed or force limit, or when MuJoCo reports a bad acceleration
-    (divergence; MuJoCo would otherwise silently reset the state). The stop's time ``t`` is
-    the time the offending step's command was meant for (``(k + 1)·ΔT`` for step k, as in
-    the records of :func:`~rths3d.platform.tracking.track`). A stopped platform stays
-    stopped, as a bench would: ``stopped_by`` holds the stop and every later ``step`` raises
-    it again until :meth:`reset`.
-    """
-
-    def __init__(self, config: PlatformConfig | None = None, payload_xml: str | None = None,
-                 world_xml: str | None = None, settle: float = 0.05):
-        import mujoco
-
-        self.config = config = config or PlatformConfig()
-        self.model = build_model(config, payload_xml, world_xml)
-        self.data = mujoco.MjData(self.model)
-        self.ids = _Ids(self.model)
-        self._mj_step = mujoco.mj_step
-        self.settle = float(settle)
-        g = config.geometry
-        self._ik = ScalarIK(g).ik
-        self._home = tuple(float(v) for v in g.home_leg_lengths())
-        self._h = float(g.home_height)
-        self._dt = float(config.dt)
-        self._nsub = int(config.substeps)
-        a = config.actuator
-        self._ffg = (a.kv / a.kp / config.dt) if a.velocity_ff else 0.0
-        half = config.stroke / 2
-        self._smax = half
-        self._vmax = float(config.velocity_limit)
-        self._fmax = float(config.force_limit)
-        d = self.data
-        ids = self.ids
-        # precomputed views (no name lookups per step)
-        a0 = int(ids.act[0])
-        if list(ids.act) != list(range(a0, a0 + 6)):  # pragma: no cover - generated model
-            raise RuntimeError("leg actuators are not contiguous")
-        self._ctrl = d.ctrl[a0:a0 + 6]
-        self._qpos = d.qpos
-        q0 = ids.slide_qpos[0]
-        stride = int(ids.slide_qpos[1] - q0)
-        if ids.contiguous_slides:
-            self._slide_q = d.qpos[q0:q0 + 5 * stride + 1:stride]
-            v0 = ids.slide_dof[0]
-            vs = int(ids.slide_dof[1] - v0)
-            self._slide_v = d.qvel[v0:v0 + 5 * vs + 1:vs]
-        else:  # pragma: no cover - the generated model always orders legs this way
-            raise RuntimeError("leg slide joints are not evenly spaced in qpos")
-        a0 = int(ids.act[0])
-        self._force = d.actuator_force[a0:a0 + 6]
-        pq = ids.plate_qpos
-        self._plate_q = d.qpos[pq:pq + 7]
-        self._sens = d.sensordata[ids.force_adr:ids.force_adr + 3]
-        self._sens_t = d.sensordata[ids.torque_adr:ids.torque_adr + 3]
-        self._site_xmat = d.site_xmat[ids.fts_site]
-        self._warn = d.warning[_BADQACC]
-        self.static: StaticState | None = None
-        self.stopped_by: SafetyStop | None = None
-        """The SafetyStop that stopped the platform (``step`` raises it again), or None."""
-        self.reset()
-
-    # ------------------------------------------------------------------ setup
-    def reset(self) -> None:
-        """Home pose, static equilibrium with gravity compensation, settle; ``t = 0``."""
-        import mujoco
-
-        m, d = self.model, self.data
-        mujoco.mj_resetData(m, d)
-        st = static_state(self.config, m, d, self.ids)
-        self.static = st
-        off = st.offsets if self.config.actuator.gravity_comp else np.zeros(6)
-        self._off = tuple(float(v) for v in off)
-        for i, a in enumerate(self.ids.act):
-            d.ctrl[a] = off[i]
-            adr = m.actuator_actadr[a]
-            if adr >= 0:
-                d.act[adr] = off[i]
-            if m.actuator_history[a, 0] > 0:
-                n = int(m.actuator_history[a, 0])
-                mujoco.mj_initCtrlHistory(m, d, int(a), None, np.full((n, 1), off[i]))
-        self._pre = tuple(float(v) for v in st.preload)
-        self._Lprev = list(self._home)
-        self._lcmd = list(self._home)
-        self._count = [0, self._warn.number]
-        self.stopped_by = None
-        self._step = self.step = _make_step(self)
-        nset = int(round(self.settle / self.config.timestep))
-        for _ in range(nset):
-            mujoco.mj_step(m, d)
-        if not nset:  # forces and sensors of the compensated state (a step computes them)
-            mujoco.mj_forward(m, d)
-        if self._warn.number != self._count[1]:
-            stop = SafetyStop(f"divergence (MuJoCo bad acceleration at DOF "
-                              f"{self._warn.lastinfo}) while settling at home, |qacc|",
-                              math.inf, _MAXVAL, 0.0)
-            self._halt(stop)
-            raise stop
-
-    # ------------------------------------------------------------------ hot path
-    @property
-    def t(self) -> float:
-        """Simulated test time (s) since reset (interface steps × ΔT)."""
-        return self._count[0] * self._dt
-
-    def step(self, x: float, y: float, z: float, rx: float, ry: float, rz: float) -> None:
-        """Command the pose (m, rad, relative to home) for one interface step ΔT.
-
-        Replaced per instance by a generated, fully unrolled function (see :func:`_make_step`)
-        at :meth:`reset`; this method documents the interface.
-        """
-        self._step(x, y, z, rx, ry, rz)
-
-    def _stop(self, quantity: str, value: float, limit: float, unit: str,
-              ahead: int = 0) -> None:
-        stop = SafetyStop(quantity, value, limit, (self._count[0] + ahead) * self._dt, unit=unit)
-        self._halt(stop)
-        raise stop
-
-    def _halt(self, stop: SafetyStop) -> None:
-        """Keep the platform stopped: every later ``step`` raises ``stop`` again until reset.
-
-        NaN previous leg lengths fail the step's speed check, which sends it to
-        :meth:`_check_command` (no cost on the running path)."""
-        self.stopped_by = stop
-        self._Lprev[:] = [math.nan] * 6
-
-    def _check_command(self, L: tuple) -> None:
-        """Raise the SafetyStop for the first commanded leg outside stroke or speed."""
-        if self.stopped_by is not None:
-            s = self.stopped_by
-            raise SafetyStop(s.quantity, s.value, s.limit, s.t, s.test, s.unit)
-        dt = self._dt
-        for i, Li in enumerate(L):
-            s = Li - self._home[i]
-            # `not <=`: a NaN command (a diverged or broken source) stops like an overrun
-            if not abs(s) <= self._smax:
-                self._stop(f"leg {i} commanded stroke", s, self._smax, "m", ahead=1)
-            v = (Li - self._Lprev[i]) / dt
-            if not abs(v) <= self._vmax:
-                self._stop(f"leg {i} commanded velocity", v, self._vmax, "m/s", ahead=1)
-        raise AssertionError("unreachable: command check found no violation")  # pragma: no cover
-
-    def _check_measured(self, q: list, v: list, f: list) -> None:
-        """Raise the SafetyStop for the first leg (then stroke, speed, force) out of limits."""
+    bad = 0
+    for k in range(poses.shape[0]):
+        x, y, z = poses[k, 0], poses[k, 1], poses[k, 2]
+        cx, sx = math.cos(poses[k, 3]), math.sin(poses[k, 3])
+        cy, sy = math.cos(poses[k, 4]), math.sin(poses[k, 4])
+        cz, sz = math.cos(poses[k, 5]), math.sin(poses[k, 5])
+        r00 = cz * cy
+        r01 = cz * sy * sx - sz * cx
+        r02 = cz * sy * cx + sz * sx
+        r10 = sz * cy
+        r11 = sz * sy * sx + cz * cx
+        r12 = sz * sy * cx - cz * sx
+        r20 = -sy
+        r21 = cy * sx
+        r22 = cy * cx
+        tz = z + hh
+        ok = True
         for i in range(6):
-            for name, vals, lim, unit in (("stroke", q, self._smax, "m"),
-                                          ("velocity", v, self._vmax, "m/s"),
-                                          ("force", f, self._fmax, "N")):
-                if abs(vals[i]) > lim:
-                    self._stop(f"leg {i} {name}", vals[i], lim, unit)
+            px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+            lx = x + r00 * px + r01 * py - b[i, 0]
+            ly = y + r10 * px + r11 * py - b[i, 1]
+            lz = tz + r20 * px + r21 * py - b[i, 2]
+            if pz != 0.0:
+                lx += r02 * pz
+                ly += r12 * pz
+                lz += r22 * pz
+            Li = math.sqrt(lx * lx + ly * ly + lz * lz)
+            L[k, i] = Li
+            # `not <=`: a NaN command stops like an overrun
+            if not (abs(Li - home[i]) <= half and abs(Li - Lprev[k, i]) <= vdt):
+                ok = False
+        if not run[k]:
+            continue
+        if not ok:
+            bad += 1
+            continue
+        for i in range(6):
+            ctrl[k, a0 + i] = L[k, i] - (home[i] - off[k, i]) + ffg[k] * (L[k, i] - Lprev[k, i])
+            Lprev[k, i] = L[k, i]
+    return bad
 
-    # ------------------------------------------------------------------ reads
-    @property
-    def pose(self) -> tuple[float, float, float, float, float, float]:
-        """Achieved plate pose relative to home (m, rad), from the plate body's state."""
-        px, py, pz, w, qx, qy, qz = self._plate_q.tolist()
-        rx, ry, rz = _quat_to_euler(w, qx, qy, qz)
-        return px, py, pz - self._h, rx, ry, rz
 
-    @property
-    def leg_lengths(self) -> tuple[float, ...]:
-        """Achieved leg lengths (m): home length + piston extension."""
-        h = self._home
-        return tuple(h[i] + s for i, s in enumerate(self._slide_q.tolist()))
+@njit
+def measured_over(q, v, f, half, vmax, fmax, run):
+    """Whether a running test's legs left stroke, speed or force (|·| above the limit)."""
+    for k in range(q.shape[0]):
+        if not run[k]:
+            continue
+        for i in range(q.shape[1]):
+            if abs(q[k, i]) > half or abs(v[k, i]) > vmax or abs(f[k, i]) > fmax:
+                return True
+    return False
 
-    @property
-    def leg_commands(self) -> tuple[float, ...]:
-        """Leg lengths (m) commanded by the last step (inverse kinematics of the pose)."""
-        return tuple(self._lcmd)
 
-    def _divergence(self) -> None:
-        self._count[1] = self._warn.number
-        self._stop(f"divergence (MuJoCo bad acceleration at DOF {self._warn.lastinfo}, "
-                   "state was reset) |qacc|", math.inf, _MAXVAL, "")
+@njit
+def world_wrench(R, sens_f, sens_t, pre, rows, out):
+    """Rows ``rows`` of the FTS wrench in world axes minus the preload (N, N·m), (K, len)."""
+    for k in range(out.shape[0]):
+        for c in range(rows.shape[0]):
+            r = rows[c]
+            a = r % 3
+            src = sens_f if r < 3 else sens_t
+            out[k, c] = (R[k, 3 * a] * src[k, 0] + R[k, 3 * a + 1] * src[k, 1]
+                         + R[k, 3 * a + 2] * src[k, 2]) - pre[k, r]
 
-    @property
-    def leg_forces(self) -> tuple[float, ...]:
-        """Actuator forces (N), positive pushing the plate away from the base."""
-        return tuple(self._force.tolist())
 
-    @property
-    def wrench(self) -> tuple[float, ...]:
-        """Raw FTS wrench ``(fx, fy, fz, tx, ty, tz)`` in the ``fts`` site frame (N, N·m).
+class _OneSim:
+    """The part of ``mujoco.batch.Batch`` the platform uses, for one ``MjData``."""
 
-        The force and torque the plate exerts on the sensor's tool side and everything
-        mounted on it (payload weight included), torque about the site origin.
-        """
-        return tuple(self._sens.tolist()) + tuple(self._sens_t.tolist())
+    def __init__(self, model) -> None:
+        self.m = model
+        self.d = mujoco.MjData(model)
+        self.models = None
+        self._warn = self.d.warning[_BADQACC]
+        self._seen = self._warn.number
 
-    @property
-    def interface_wrench(self) -> tuple[float, ...]:
-        """Restoring wrench ``f_meas`` of the experimental part (N, N·m), 6 floats.
+    def bind(self, name: str) -> np.ndarray:
+        return getattr(self.d, name)[None]
 
-        World axes, static preload (payload weight at home) removed: the force the platform
-        exerts on the specimen, so a positive value resists a positive displacement
-        (docs/architecture.md). Torque about the ``fts`` site origin.
-        """
-        fx, fy, fz = self._sens.tolist()
-        tx, ty, tz = self._sens_t.tolist()
-        r0, r1, r2, r3, r4, r5, r6, r7, r8 = self._site_xmat.tolist()
-        p = self._pre
-        return (r0 * fx + r1 * fy + r2 * fz - p[0],
-                r3 * fx + r4 * fy + r5 * fz - p[1],
-                r6 * fx + r7 * fy + r8 * fz - p[2],
-                r0 * tx + r1 * ty + r2 * tz - p[3],
-                r3 * tx + r4 * ty + r5 * tz - p[4],
-                r6 * tx + r7 * ty + r8 * tz - p[5])
+    def get_model(self, k: int):
+        return self.m
 
-    def equality_gap(self) -> float:
-        """Largest distance between a leg tip and its plate anchor (m)."""
-        import mujoco
+    def set_time(self, t: float) -> None:
+        self.d.time = t
 
-        mujoco.mj_kinematics(self.model, self.data)
-        x = self.data.site_xpos
-        return float(max(np.linalg.norm(x[a] - x[b]) for a, b in
-                         zip(self.ids.tip_site, self.ids.anchor_site, strict=True)))
+    def reset(self) -> None:
+        mujoco.mj_resetData(self.m, self.d)
 
+    def set_const(self) -> None:
+        mujoco.mj_setConst(self.m, self.d)
+
+    def forward(self) -> None:
+        mujoco.mj_forward(self.m, self.d)
+
+    def step(self, nstep: int = 1, ids=None) -> None:
+        mujoco.mj_step(self.m, self.d, nstep)
+
+    def failed(self, expected: float) -> np.ndarray:
+        """Which simulations diverged (MuJoCo's bad-acceleration warning since the last
+        call; it then resets the state silently)."""
+        n = self._warn.number
+        bad = n != self._seen
+        self._seen = n
+        return np.array([bad])
+
+    def error(self, k: int) -> str:
+        return f"MuJoCo bad acceleration at DOF {self._warn.lastinfo}, state was reset"
+
+
+class _ManySims:
+    """``mujoco.batch.Batch`` with the adapter's extra methods."""
+
+    def __init__(self, model, nsim: int, nthread: int) -> None:
+        self.batch = mujoco.batch.Batch(model, nsim, nthread)
+        self._time = self.batch.bind("time")
+
+    def __getattr__(self, name: str):
+        return getattr(self.batch, name)
+
+    def set_time(self, t: float) -> None:
+        self._time[:] = t
+
+    def failed(self, expected: float) -> np.ndarray:
+        """MuJoCo resets a simulation whose acceleration blows up and carries on from time 0;
+        the batch does not expose the warning counters, so a simulation time behind the
+        expected one (or a status) is the signature of that reset."""
+        return (self._time < expected) | (self.batch.status != 0)
 
 class PlatformBatch:
-    """K platforms (one model, per-test parameters) stepped together with ``mujoco.batch``.
+    """K platforms (one model, per-test parameters) stepped together.
 
     ``step(poses)`` takes commanded poses (K, 6) (m, rad, relative to home). A test that
     leaves a limit is frozen at its last safe state (its commands no longer change) and
@@ -472,18 +304,14 @@ class PlatformBatch:
     heavier payload of one shape); then call ``reset(set_const=True)`` so that the static
     equilibrium (gravity compensation, FTS preload) follows. ``variants`` (one
     ``(config, payload_xml, world_xml)`` per test, one model structure) run each test on its
-    own compiled model; a payload or world of another structure raises ConfigError.
+    own compiled model; a payload or world of another structure raises ConfigError. One
+    test (``nsim = 1``) steps a plain ``MjData``.
     """
 
     def __init__(self, config: PlatformConfig | None = None, nsim: int = 1, nthread: int = 0,
                  payload_xml: str | None = None, world_xml: str | None = None,
                  settle: float = 0.05, *,
                  variants: Sequence[tuple[PlatformConfig, str | None, str | None]] | None = None):
-        import mujoco
-        from mujoco.batch import Batch
-
-        from ..errors import ConfigError
-
         if not (isinstance(nsim, int) and nsim >= 1):
             raise ConfigError("nsim", nsim, "must be an integer >= 1")
         if variants is not None:
@@ -508,7 +336,8 @@ class PlatformBatch:
         self.nsim = nsim
         self.ids = _Ids(self.model)
         self.settle = float(settle)
-        self.batch = Batch(self.model, nsim, nthread)
+        self.batch = _OneSim(self.model) if nsim == 1 and variants is None else \
+            _ManySims(self.model, nsim, nthread)
         self._cfgs = [config] * nsim
         if variants is not None and len(set(variants)) > 1:
             compiled: dict = {variants[0]: self.model}
@@ -529,44 +358,43 @@ class PlatformBatch:
         self._sensor = self.batch.bind("sensordata")
         self._force = self.batch.bind("actuator_force")
         self._xmat = self.batch.bind("site_xmat")
-        self._time = self.batch.bind("time")
-        self._mujoco = mujoco
         g = config.geometry
         self._home = g.home_leg_lengths()
-        from .kinematics import inverse_kinematics
-
-        self._inverse_kinematics = inverse_kinematics
         self._half = config.stroke / 2
         self._vmax = float(config.velocity_limit)
         self._vdt = self._vmax * config.dt
         self._fmax = float(config.force_limit)
-        # velocity feed-forward gain per test (K, 1)
-        self._ffg = np.array([[(c.actuator.kv / c.actuator.kp / c.dt)
-                               if c.actuator.velocity_ff else 0.0] for c in self._cfgs])
-        if not self._ffg.any():
-            self._ffg = 0.0
+        # velocity feed-forward gain per test
+        self._ffg = np.array([(c.actuator.kv / c.actuator.kp / c.dt)
+                              if c.actuator.velocity_ff else 0.0 for c in self._cfgs])
         ids = self.ids
-        a0 = int(ids.act[0])
-        self._act_slice = (a0, a0 + 6)
+        self._a0 = int(ids.act[0])
         qs = int(ids.slide_qpos[1] - ids.slide_qpos[0])
-        self._q_slice = (int(ids.slide_qpos[0]), int(ids.slide_qpos[-1]) + 1, qs)
+        self._q_slice = slice(int(ids.slide_qpos[0]), int(ids.slide_qpos[-1]) + 1, qs)
         vs = int(ids.slide_dof[1] - ids.slide_dof[0])
-        self._v_slice = (int(ids.slide_dof[0]), int(ids.slide_dof[-1]) + 1, vs)
-        self._any_stopped = False
-        # anchors precomputed for the per-step inverse kinematics over tests
-        self._b = g.base_anchors()
-        self._p = g.top_anchors()
+        self._v_slice = slice(int(ids.slide_dof[0]), int(ids.slide_dof[-1]) + 1, vs)
+        self._legs_q = self._qpos[:, self._q_slice]
+        self._legs_v = self._qvel[:, self._v_slice]
+        self._legs_f = self._force[:, self._a0:self._a0 + 6]
+        # anchors for the per-step inverse kinematics
+        self._b = np.ascontiguousarray(g.base_anchors(), dtype=float)
+        self._p = np.ascontiguousarray(g.top_anchors(), dtype=float)
         self._hh = float(g.home_height)
-        # pure translation (R = I): leg vector = q_xyz + (p − b) + [0, 0, h_home]
-        self._a = (self._p - self._b) + np.array([0.0, 0.0, self._hh])
         pa = self.ids.plate_qpos
         self.plate_qpos = self._qpos[:, pa:pa + 7]
         """Live (K, 7) view of the plate's free-joint qpos (position m, quaternion wxyz)."""
-        fa = self.ids.force_adr
+        fa, ta = self.ids.force_adr, self.ids.torque_adr
         self._fts_force = self._sensor[:, fa:fa + 3]
-        self._fts_R = self._xmat[:, self.ids.fts_site].reshape(nsim, 3, 3)
+        self._fts_torque = self._sensor[:, ta:ta + 3]
+        self._fts_R = self._xmat[:, self.ids.fts_site]
+        self._L = np.zeros((nsim, 6))
+        self._run = np.ones(nsim, dtype=np.bool_)
+        self._all = np.arange(nsim)
+        self._wrows: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self.stopped = np.zeros(nsim, dtype=bool)
         self.reasons = [""] * nsim
+        self.stops: list[SafetyStop | None] = [None] * nsim
+        """The stop of each frozen test (None while it runs)."""
         self.stop_time = np.full(nsim, np.nan)
         self.k = 0
         self.reset()
@@ -578,7 +406,6 @@ class PlatformBatch:
         changing masses or inertias, e.g. ``batch.batch.body("payload").mass = m[:, None]``);
         with ``variants`` it recomputes them on each test's own model (``batch.batch.models``).
         """
-        mujoco = self._mujoco
         if set_const:
             models = self.batch.models
             if models is None:
@@ -595,10 +422,12 @@ class PlatformBatch:
         pre = np.zeros((self.nsim, 6))
         d = mujoco.MjData(m)
         state_fields = {}
+        statics = []
         for k in range(self.nsim):
             mk = self.batch.get_model(k)
             mujoco.mj_resetData(mk, d)
             st = static_state(self._cfgs[k], mk, d, self.ids)
+            statics.append(st)
             if self._cfgs[k].actuator.gravity_comp:
                 offs[k] = st.offsets
             pre[k] = st.preload
@@ -614,15 +443,19 @@ class PlatformBatch:
                 arr = getattr(d, name)
                 if arr.size:
                     state_fields.setdefault(name, np.zeros((self.nsim,) + arr.shape))[k] = arr
-        self._time[:] = 0.0
+        self.statics = statics
+        # a reset forgets the past: solver warm starts and every other derived field too
+        self.batch.reset()
+        self.batch.set_time(0.0)
         for name, arr in state_fields.items():
             self.batch.bind(name)[:] = arr
         self._off = offs
         self._pre = pre
         self._Lprev = np.tile(self._home, (self.nsim, 1))
         self.stopped[:] = False
-        self._any_stopped = False
+        self._run[:] = True
         self.reasons = [""] * self.nsim
+        self.stops = [None] * self.nsim
         self.stop_time[:] = np.nan
         nset = int(round(self.settle / cfg.timestep))
         self._t0 = nset * cfg.timestep
@@ -638,46 +471,18 @@ class PlatformBatch:
         """Simulated test time (s) since reset."""
         return self.k * self.config.dt
 
-    def _ik(self, q: np.ndarray) -> np.ndarray:
-        """Leg lengths (K, 6) of poses (K, 6): the kinematics of ``inverse_kinematics``
-        with the anchors precomputed (only the first two columns of R act on them)."""
-        cx, sx = np.cos(q[:, 3:4]), np.sin(q[:, 3:4])
-        cy, sy = np.cos(q[:, 4:5]), np.sin(q[:, 4:5])
-        cz, sz = np.cos(q[:, 5:6]), np.sin(q[:, 5:6])
-        px, py = self._p[:, 0], self._p[:, 1]
-        b = self._b
-        lx = q[:, 0:1] + (cz * cy) * px + (cz * sy * sx - sz * cx) * py - b[:, 0]
-        ly = q[:, 1:2] + (sz * cy) * px + (sz * sy * sx + cz * cx) * py - b[:, 1]
-        lz = (q[:, 2:3] + self._hh) - sy * px + (cy * sx) * py - b[:, 2]
-        return np.sqrt(lx * lx + ly * ly + lz * lz)
-
-    def _ik_translation(self, q: np.ndarray) -> np.ndarray:
-        """Leg lengths (K, 6) of pure translations (rotation columns of ``q`` ignored)."""
-        a = self._a
-        lx = q[:, 0:1] + a[:, 0]
-        ly = q[:, 1:2] + a[:, 1]
-        lz = q[:, 2:3] + a[:, 2]
-        return np.sqrt(lx * lx + ly * ly + lz * lz)
-
     def _freeze(self, k: int, stop: SafetyStop) -> None:
         if not self.stopped[k]:
-            self._any_stopped = True
+            self.stops[k] = stop
             self.stopped[k] = True
+            self._run[k] = False
             self.reasons[k] = stop.reason
             self.stop_time[k] = stop.t
 
     def _check_status(self, settling: bool = False) -> None:
-        """Flag tests whose simulation failed or diverged.
-
-        MuJoCo resets a simulation whose acceleration blows up (bad-acceleration warning)
-        and carries on from time 0; the batch does not expose the warning counters, so a
-        simulation time behind the expected one is the signature of that reset.
-        """
+        """Flag tests whose simulation failed or diverged (MuJoCo resets such a state)."""
         expected = self._t0 + self.k * self.config.dt - 0.5 * self.config.timestep
-        status = self.batch.status
-        if self._time.min() >= expected and not status.any():
-            return
-        bad = ((self._time < expected) | (status != 0)) & ~self.stopped
+        bad = self.batch.failed(expected) & ~self.stopped
         if bad.any():
             for k in np.flatnonzero(bad):
                 msg = self.batch.error(int(k)).strip()
@@ -689,56 +494,38 @@ class PlatformBatch:
     def step(self, poses: np.ndarray, translation_only: bool = False) -> None:
         """Command poses (K, 6) (m, rad, relative to home) for one interface step ΔT.
 
-        ``translation_only``: the caller guarantees rx = ry = rz = 0 (an interface without
-        rotational DOFs), so the inverse kinematics skips the rotation.
+        ``translation_only`` is accepted for compatibility: the compiled inverse kinematics
+        costs the same with rotations.
         """
-        cfg = self.config
         poses = np.asarray(poses, dtype=float)
         if poses.shape != (self.nsim, 6):
-            from ..errors import ConfigError
-
             raise ConfigError("poses", f"array of shape {poses.shape}",
                               f"need ({self.nsim}, 6)")
-        L = self._ik_translation(poses) if translation_only else self._ik(poses)
-        s = L - self._home
-        dL = L - self._Lprev
-        half, vdt = self._half, self._vdt
-        # cheap whole-batch test first; per-test bookkeeping only when something is off
-        if np.abs(s).max() > half or np.abs(dL).max() > vdt:
-            self._command_limits(s, dL)
-        cmd = s + self._off + self._ffg * dL
-        a0, a1 = self._act_slice
-        if not self._any_stopped:
-            self._ctrl[:, a0:a1] = cmd
-            self._Lprev[:] = L
-            self.batch.step(nstep=cfg.substeps)
-        else:
+        bad = leg_setpoints(np.ascontiguousarray(poses), self._b, self._p, self._hh,
+                            self._home, self._off, self._ffg, self._Lprev, self._L, self._ctrl,
+                            self._a0, self._half, self._vdt, self._run)
+        if bad:
+            self._command_limits(self._L - self._home, self._L - self._Lprev)
+        if self._run.all():
+            self.batch.step(nstep=self.config.substeps)
+        elif self._run.any():
             # stopped tests hold their last set-point and are not stepped any more
-            run = ~self.stopped
-            self._ctrl[run, a0:a1] = cmd[run]
-            self._Lprev[run] = L[run]
-            if run.any():
-                self.batch.step(ids=np.flatnonzero(run), nstep=cfg.substeps)
+            self.batch.step(ids=self._all[self._run], nstep=self.config.substeps)
         self.k += 1
         self._check_status()
-        q0, q1, qs = self._q_slice
-        v0, v1, vs = self._v_slice
-        q = self._qpos[:, q0:q1:qs]
-        v = self._qvel[:, v0:v1:vs]
-        f = self._force[:, a0:a1]
-        if np.abs(q).max() > half or np.abs(v).max() > self._vmax or \
-                np.abs(f).max() > self._fmax:
-            self._measured_limits(q, v, f)
+        if measured_over(self._legs_q, self._legs_v, self._legs_f, self._half, self._vmax,
+                         self._fmax, self._run):
+            self._measured_limits(self._legs_q, self._legs_v, self._legs_f)
 
     def _command_limits(self, s: np.ndarray, dL: np.ndarray) -> None:
         """Freeze the running tests whose command leaves stroke or speed (before the step)."""
         dt = self.config.dt
         half, vdt = self._half, self._vdt
         t_next = (self.k + 1) * dt
-        bad = ((np.abs(s) > half) | (np.abs(dL) > vdt)) & ~self.stopped[:, None]
+        bad = (~(np.abs(s) <= half) | ~(np.abs(dL) <= vdt)) & ~self.stopped[:, None]
         for k in np.flatnonzero(bad.any(axis=1)):
             i = int(np.flatnonzero(bad[k])[0])
-            if abs(s[k, i]) > half:
+            if not abs(s[k, i]) <= half:
                 stop = SafetyStop(f"leg {i} commanded stroke", s[k, i], half, t_next,
                                   test=int(k), unit="m")
             else:
@@ -772,6 +559,11 @@ class PlatformBatch:
         return self._home + self._qpos[:, self.ids.slide_qpos]
 
     @property
+    def leg_commands(self) -> np.ndarray:
+        """Leg lengths (K, 6), m, commanded by the last step (inverse kinematics)."""
+        return self._Lprev.copy()
+
+    @property
     def leg_forces(self) -> np.ndarray:
         """Actuator forces (K, 6), N."""
         return self._force[:, self.ids.act].copy()
@@ -779,25 +571,150 @@ class PlatformBatch:
     @property
     def wrench(self) -> np.ndarray:
         """Raw FTS wrench (K, 6) in the site frame (N, N·m); see :attr:`PlatformSim.wrench`."""
-        ids = self.ids
-        return np.concatenate([self._sensor[:, ids.force_adr:ids.force_adr + 3],
-                               self._sensor[:, ids.torque_adr:ids.torque_adr + 3]], axis=1)
+        return np.concatenate([self._fts_force, self._fts_torque], axis=1)
+
+    def _rows(self, rows: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        key = tuple(int(r) for r in rows)
+        if key not in self._wrows:
+            self._wrows[key] = (np.array(key, dtype=np.int64), np.zeros((self.nsim, len(key))))
+        return self._wrows[key]
 
     @property
     def interface_wrench(self) -> np.ndarray:
         """Restoring wrench ``f_meas`` (K, 6): world axes, static preload removed (N, N·m)."""
-        R = self._xmat[:, self.ids.fts_site].reshape(self.nsim, 3, 3)
-        w = self.wrench
-        out = np.empty((self.nsim, 6))
-        out[:, :3] = np.einsum("kij,kj->ki", R, w[:, :3])
-        out[:, 3:] = np.einsum("kij,kj->ki", R, w[:, 3:])
-        return out - self._pre
+        return self.interface_force(range(6)).copy()
 
-    def interface_force(self, rows: np.ndarray) -> np.ndarray:
-        """Translational rows ``rows`` (axes 0–2) of :attr:`interface_wrench`, (K, len(rows)).
+    def interface_force(self, rows: Sequence[int]) -> np.ndarray:
+        """Rows ``rows`` (0–2 force, 3–5 torque) of :attr:`interface_wrench`, (K, len(rows)),
+        in a buffer reused per set of rows."""
+        idx, out = self._rows(rows)
+        world_wrench(self._fts_R, self._fts_force, self._fts_torque, self._pre, idx, out)
+        return out
 
-        The same world-axis force with the preload removed, without the torque rotation (the
-        hot path of interfaces that use only translations).
+
+class PlatformSim:
+    """One simulated platform stepped at the interface rate ΔT = ``config.dt``.
+
+    Parameters
+    ----------
+    config:
+        Platform configuration (geometry, actuators, step).
+    payload_xml, world_xml:
+        MJCF fragments: the experimental part on the FTS, extra world bodies.
+    settle:
+        Simulated time (s) held at home during :meth:`reset` so the chain and the payload
+        settle before the test starts.
+
+    After ``reset()``, call ``step(x, y, z, rx, ry, rz)`` once per ΔT with the commanded pose
+    (m, rad, relative to home): the same compiled kernels as :class:`PlatformBatch` (it is
+    one, with K = 1). ``step`` raises :class:`~rths3d.errors.SafetyStop` when a commanded leg
+    leaves its stroke or speed limit (before stepping), when a measured leg leaves its
+    stroke, speed or force limit, or when MuJoCo reports a bad acceleration (divergence;
+    MuJoCo would otherwise silently reset the state). The stop's time ``t`` is the time the
+    offending step's command was meant for (``(k + 1)·ΔT`` for step k). A stopped platform
+    stays stopped, as a bench would: ``stopped_by`` holds the stop and every later ``step``
+    raises it again until :meth:`reset`.
+    """
+
+    def __init__(self, config: PlatformConfig | None = None, payload_xml: str | None = None,
+                 world_xml: str | None = None, settle: float = 0.05):
+        self._b = PlatformBatch(config, 1, 1, payload_xml, world_xml, settle)
+        self.config = self._b.config
+        self.model = self._b.model
+        self.data = self._b.batch.d
+        self.ids = self._b.ids
+        self.settle = self._b.settle
+        self._pose = np.zeros((1, 6))
+        self._h = self._b._hh
+        self._smax, self._vmax, self._fmax = self._b._half, self._b._vmax, self._b._fmax
+        self.stopped_by: SafetyStop | None = None
+        """The SafetyStop that stopped the platform (``step`` raises it again), or None."""
+        self._raise_if_stopped()
+
+    @property
+    def static(self) -> StaticState:
+        """Static equilibrium at home (computed at reset)."""
+        return self._b.statics[0]
+
+    def reset(self) -> None:
+        """Home pose, static equilibrium with gravity compensation, settle; ``t = 0``."""
+        self._b.reset()
+        self.stopped_by = None
+        self._raise_if_stopped()
+
+    def _raise_if_stopped(self) -> None:
+        stop = self._b.stops[0]
+        if stop is not None:
+            self.stopped_by = stop
+            raise stop
+
+    @property
+    def t(self) -> float:
+        """Simulated test time (s) since reset (interface steps × ΔT)."""
+        return self._b.t
+
+    def step(self, x: float, y: float, z: float, rx: float, ry: float, rz: float) -> None:
+        """Command the pose (m, rad, relative to home) for one interface step ΔT."""
+        if self.stopped_by is not None:
+            raise self.stopped_by
+        p = self._pose
+        p[0, 0], p[0, 1], p[0, 2], p[0, 3], p[0, 4], p[0, 5] = x, y, z, rx, ry, rz
+        self._b.step(p)
+        if self._b.stopped[0]:
+            self._raise_if_stopped()
+
+    def _check_measured(self, q: Sequence[float], v: Sequence[float],
+                        f: Sequence[float]) -> None:
+        """Raise the SafetyStop for the first leg (then stroke, speed, force) out of limits."""
+        self._b._measured_limits(np.array([q], float), np.array([v], float),
+                                 np.array([f], float))
+        self._raise_if_stopped()
+
+    # ------------------------------------------------------------------ reads
+    @property
+    def pose(self) -> tuple[float, float, float, float, float, float]:
+        """Achieved plate pose relative to home (m, rad), from the plate body's state."""
+        px, py, pz, w, qx, qy, qz = self._b.plate_qpos[0].tolist()
+        rx, ry, rz = _quat_to_euler(w, qx, qy, qz)
+        return px, py, pz - self._h, rx, ry, rz
+
+    @property
+    def leg_lengths(self) -> tuple[float, ...]:
+        """Achieved leg lengths (m): home length + piston extension."""
+        return tuple(self._b.leg_lengths[0].tolist())
+
+    @property
+    def leg_commands(self) -> tuple[float, ...]:
+        """Leg lengths (m) commanded by the last step (inverse kinematics of the pose)."""
+        return tuple(self._b._Lprev[0].tolist())
+
+    @property
+    def leg_forces(self) -> tuple[float, ...]:
+        """Actuator forces (N), positive pushing the plate away from the base."""
+        return tuple(self._b._legs_f[0].tolist())
+
+    @property
+    def wrench(self) -> tuple[float, ...]:
+        """Raw FTS wrench ``(fx, fy, fz, tx, ty, tz)`` in the ``fts`` site frame (N, N·m).
+
+        The force and torque the plate exerts on the sensor's tool side and everything
+        mounted on it (payload weight included), torque about the site origin.
         """
-        return (self._fts_R[:, rows, :] @ self._fts_force[:, :, None])[:, :, 0] \
-            - self._pre[:, rows]
+        return tuple(self._b.wrench[0].tolist())
+
+    @property
+    def interface_wrench(self) -> tuple[float, ...]:
+        """Restoring wrench ``f_meas`` of the experimental part (N, N·m), 6 floats.
+
+        World axes, static preload (payload weight at home) removed: the force the platform
+        exerts on the specimen, so a positive value resists a positive displacement
+        (docs/architecture.md). Torque about the ``fts`` site origin.
+        """
+        return tuple(self._b.interface_force(range(6))[0].tolist())
+
+    def equality_gap(self) -> float:
+        """Largest distance between a leg tip and its plate anchor (m)."""
+        mujoco.mj_kinematics(self.model, self.data)
+        x = self.data.site_xpos
+        return float(max(np.linalg.norm(x[a] - x[b]) for a, b in
+                         zip(self.ids.tip_site, self.ids.anchor_site, strict=True)))

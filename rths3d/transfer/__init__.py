@@ -1,25 +1,67 @@
-"""Transfer systems (ideal, pure delay, 1-D LTI actuator, MuJoCo Stewart platform), delay
-compensation and the force-sensor model, interchangeable behind one small protocol."""
+"""Transfer systems: one class per kind (ideal, pure delay, 1-D LTI, MuJoCo Stewart
+platform), registered by name behind :class:`TransferSystem`; compensators and the
+force-sensor model as components of them."""
 
 from .actuators import (
     Compensator,
     DelayLine,
     LTIActuator,
+    PerTestDelayLine,
+    PerTestLTIActuator,
     SensorModel,
     default_transfer_function,
     default_transport_delay,
+    discretise_tf,
 )
-from .systems import ActuatorTransfer, StewartTransfer, TransferSystem, build_transfer
+from .base import (
+    TRANSFERS,
+    CompiledTransfer,
+    RecordSignal,
+    TransferSystem,
+    batch_key,
+    build_transfer,
+    register_transfer,
+    transfer_class,
+    transfer_kinds,
+)
+from .chain import ChainTransfer
+from .compensators import (
+    COMPENSATORS,
+    compensator_class,
+    compensator_kinds,
+    register_compensator,
+)
+from .delay import DelayTransfer
+from .ideal import IdealTransfer
+from .lti import LTITransfer
+from .stewart import StewartTransfer
 
 __all__ = [
-    "ActuatorTransfer",
+    "COMPENSATORS",
+    "TRANSFERS",
+    "ChainTransfer",
     "Compensator",
+    "CompiledTransfer",
     "DelayLine",
+    "DelayTransfer",
+    "IdealTransfer",
     "LTIActuator",
+    "LTITransfer",
+    "PerTestDelayLine",
+    "PerTestLTIActuator",
+    "RecordSignal",
     "SensorModel",
     "StewartTransfer",
     "TransferSystem",
+    "batch_key",
     "build_transfer",
+    "compensator_class",
+    "compensator_kinds",
     "default_transfer_function",
     "default_transport_delay",
+    "discretise_tf",
+    "register_compensator",
+    "register_transfer",
+    "transfer_class",
+    "transfer_kinds",
 ]

@@ -15,9 +15,9 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ConfigError, RthsError
-from ..loop import LoopControl, RunResult, run, scene_with
+from ..loop import LoopControl, RunResult, run
 from ..record import RecordBuffer
-from ..scene import TRANSFER_KINDS, Scene, load_scene
+from ..scene import Scene, load_scene, scene_with, transfer_kinds
 from .app import RunControl, Viewer
 
 KEY_PARAMS: dict[str, tuple[float, float, float]] = {
@@ -273,7 +273,7 @@ class LiveRun:
         """A live :class:`Viewer` of this run with run controls (starts the run)."""
         buffer = self.start()
         control = RunControl(
-            transfers=TRANSFER_KINDS, transfer=self.scene.transfer.kind,
+            transfers=transfer_kinds(), transfer=self.scene.transfer.kind,
             params=self.key_params(), restart=self.restart, pause=self.pause,
             resume=self.resume, stop=self.stop, set_speed=self.set_speed, status=self.status)
         view = Viewer(buffer, live=True, control=control, speed=self.speed or 1.0,

@@ -261,13 +261,13 @@ class ViewProcess:
 
     def start(self, timeout: float = 60.0) -> ViewProcess:
         """Start the run, the child process and the relay."""
-        from ..scene import TRANSFER_KINDS
+        from ..scene import transfer_kinds
 
         self.run.stream_factory = self._new_stream
         self.run.start()
         if not self._ready.wait(timeout):
             raise TimeoutError(f"the run did not reach its first control check in {timeout} s")
-        ctl = {"transfers": TRANSFER_KINDS, "transfer": self.run.scene.transfer.kind,
+        ctl = {"transfers": transfer_kinds(), "transfer": self.run.scene.transfer.kind,
                "params": self.run.key_params(), "autostart": self.autostart}
         proc = subprocess.Popen([sys.executable, "-m", "rths3d.viz.process"],
                                 stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,

@@ -1,0 +1,218 @@
+"""The configuration of one vRTHS test: frozen dataclasses, SI units (m, rad, s, kg, N, N·m).
+
+:class:`Scene` holds the numerical substructure, its excitation, the experimental part, the
+transfer system, the force sensor and the safety limits. This module only describes; reading
+and validating TOML scenes is :mod:`rths3d.scene`, which re-exports these classes. Components
+(experimental parts, transfer systems) import their configuration from here, so that the
+scene parser may ask them what they accept without an import circle.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields, replace
+from typing import Any
+
+__all__ = [
+    "ExcitationConfig",
+    "ExperimentConfig",
+    "Matrix",
+    "NumericalConfig",
+    "SafetyConfig",
+    "SafetyLimits",
+    "Scene",
+    "SensorConfig",
+    "TransferConfig",
+]
+
+Matrix = tuple[tuple[float, ...], ...]
+
+
+@dataclass(frozen=True)
+class NumericalConfig:
+    """Linear numerical substructure ``M ẍ + C ẋ + K x = p(t) − Γ F'_m`` (SI).
+
+    ``M`` (kg or kg·m²), ``C`` (N·s/m), ``K`` (N/m) are n×n; ``gamma`` (Γ) is n × n_if and
+    maps the interface DOFs (``Scene.dofs``) to numerical DOFs: the commanded interface
+    displacement is ``z = Γᵀ x``. ``integrator`` is ``exact`` (exact discretisation of the
+    state space with the force held over a step, unconditionally stable on its own) or
+    ``central_difference`` (explicit, stable for ω_max ΔT < 2, checked with the part's
+    spring added). The coupled loop (force held over a step) is only conditionally stable.
+    """
+
+    M: Matrix
+    C: Matrix
+    K: Matrix
+    gamma: Matrix
+    integrator: str = "exact"
+
+    @property
+    def n(self) -> int:
+        """Number of numerical DOFs."""
+        return len(self.M)
+
+
+@dataclass(frozen=True)
+class ExcitationConfig:
+    """Excitation of the numerical substructure.
+
+    ``kind``: ``none``; ``force`` (p = a(t)·direction, N); ``support`` (support motion u(t):
+    p = k_s u + c_s u̇ with k_s = K·1, c_s = C·1, the paper's suspension cosine z_d);
+    ``ground`` (ground acceleration ü_g: p = −M·1·ü_g). The signal a(t) / u(t) / ü_g(t) is
+    ``sine`` (amplitude·sin(2π f t + phase)), ``raised_cosine`` (the paper's z_d =
+    peak/2·(1 − cos 2π f_d t), peak = ``amplitude`` or h_0 + ``overtravel`` Δz_d), ``file``
+    (CSV with columns ``t`` and ``column``) or ``array`` (``times``, ``values``); recorded
+    signals are interpolated linearly and scaled by ``scale``.
+    """
+
+    kind: str = "none"
+    signal: str = "sine"
+    amplitude: float = 0.0
+    frequency: float = 0.0
+    phase: float = 0.0
+    overtravel: float = float("nan")
+    file: str = ""
+    column: str = "value"
+    scale: float = 1.0
+    times: tuple[float, ...] = ()
+    values: tuple[float, ...] = ()
+    direction: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class ExperimentConfig:
+    """Experimental part mounted on the force-torque sensor (paper Figs. 4 and 5).
+
+    ``contact``: mass ``m`` (kg) on a spring ``k`` (N/m, damper ``d`` N·s/m) above the FTS,
+    hitting a world-fixed surface ``h0`` (m) above its static equilibrium; penalty contact
+    with stiffness ``k_contact`` (N/m) and damping ``d_contact`` (N·s/m).
+    ``linear``: the same part without the surface (Fig. 5).
+    ``multidof``: a rigid bar (mass ``m``, pitch inertia ``inertia`` kg·m²) on a heave
+    spring ``k`` and a pitch spring ``k_rot`` (N·m/rad) whose end (``arm`` m from the axis)
+    hits the surface: interface DOFs z and ry.
+    ``substeps``: physics steps per interface step for the specimen models.
+    """
+
+    kind: str = "contact"
+    m: float = 0.38
+    k: float = 8650.0
+    d: float = 0.0
+    h0: float = 0.005
+    k_contact: float = 1.0e5
+    d_contact: float = 40.0
+    inertia: float = 2.0e-3
+    k_rot: float = 400.0
+    d_rot: float = 0.0
+    arm: float = 0.1
+    substeps: int = 4
+
+
+@dataclass(frozen=True)
+class TransferConfig:
+    """Transfer system between command z and achieved z'.
+
+    ``kind``: ``ideal`` (z' = z), ``delay`` (z'(t) = z(t − ``delay``)), ``lti`` (continuous
+    transfer function ``num``/``den`` in s, discretised exactly with a held input, after a
+    pure ``delay``; empty num/den loads ``assets/platform_heave_tf.json`` with its identified
+    transport delay, ``delay`` then replacing the identification run's actuator delay, or a
+    50 Hz second-order lag) or ``stewart`` (the MuJoCo Stewart platform). ``compensation``
+    ``velocity`` adds ``comp_time``·ż to the command; ``polynomial`` extrapolates the command
+    ``comp_time`` ahead with a polynomial of ``poly_order`` through the last samples.
+    ``kp``, ``kv`` (N/m, N·s/m), ``timeconst`` (s), ``velocity_ff`` and ``substeps`` tune the
+    Stewart platform's leg servos; the ``lti`` path with the identified model follows
+    ``timeconst`` and ``velocity_ff`` (with kv/kp) too, by exchanging the identification run's
+    first-order lags for the scene's (:func:`rths3d.transfer.actuators.follow_servo_settings`).
+    """
+
+    kind: str = "ideal"
+    delay: float = 0.0
+    num: tuple[float, ...] = ()
+    den: tuple[float, ...] = ()
+    compensation: str = "none"
+    comp_time: float = 0.0
+    poly_order: int = 2
+    kp: float = 2.0e5
+    kv: float = 2.0e3
+    timeconst: float = 0.0
+    velocity_ff: bool = True
+    substeps: int = 1
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    """Force-torque sensor model between F_m and F'_m.
+
+    ``kind`` ``ideal`` or ``first_order`` (time constant ``time_constant`` s); then
+    F'_m = ``gain``·F + ``offset`` + white noise of std ``noise_std`` (N), delayed by
+    ``delay`` (s). ``seed`` seeds the noise.
+    """
+
+    kind: str = "ideal"
+    time_constant: float = 0.0
+    noise_std: float = 0.0
+    gain: float = 1.0
+    offset: float = 0.0
+    delay: float = 0.0
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class SafetyLimits:
+    """Bench limits: the test stops (SafetyStop) when one is exceeded.
+
+    ``stroke`` (m) and ``rotation`` (rad) bound |z|; ``velocity`` (m/s) bounds |ż| of the
+    command; ``force`` (N) and ``torque`` (N·m) bound |F'_m| (the FTS range);
+    ``divergence`` (m) bounds any numerical displacement. A growing interface oscillation
+    (a delay-induced RTHS instability) also counts as divergence: the peak |F'_m| of each DOF
+    over windows of ``growth_window`` (s) grew by more than ``growth`` (factor per window) in
+    ``growth_windows`` consecutive windows, each peak above 2 % of the FTS range
+    (``growth_windows = 0`` switches this off).
+    """
+
+    stroke: float = 0.04
+    rotation: float = 0.2
+    velocity: float = 0.5
+    force: float = 1000.0
+    torque: float = 100.0
+    divergence: float = 1.0
+    growth: float = 1.25
+    growth_window: float = 0.5
+    growth_windows: int = 4
+
+
+SafetyConfig = SafetyLimits
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A complete vRTHS test description (SI units). See the module docstring."""
+
+    name: str
+    dofs: tuple[str, ...]
+    numerical: NumericalConfig
+    experiment: ExperimentConfig
+    excitation: ExcitationConfig = field(default_factory=ExcitationConfig)
+    transfer: TransferConfig = field(default_factory=TransferConfig)
+    sensor: SensorConfig = field(default_factory=SensorConfig)
+    safety: SafetyLimits = field(default_factory=SafetyLimits)
+    dt: float = 1.0e-3
+    duration: float = 10.0
+    source: str = ""
+
+    @property
+    def n_steps(self) -> int:
+        """Number of interface steps (samples = n_steps + 1)."""
+        return int(round(self.duration / self.dt))
+
+    def params(self) -> dict[str, Any]:
+        """Flat dict of all scalar parameters, keyed by dotted field names."""
+        out: dict[str, Any] = {"dt": self.dt, "duration": self.duration}
+        for sec in ("numerical", "experiment", "excitation", "transfer", "sensor", "safety"):
+            obj = getattr(self, sec)
+            for f in fields(obj):
+                out[f"{sec}.{f.name}"] = getattr(obj, f.name)
+        return out
+
+    def with_transfer(self, kind: str) -> Scene:
+        """The same scene with another transfer system (checked where it is built:
+        :func:`rths3d.transfer.transfer_class`)."""
+        return replace(self, transfer=replace(self.transfer, kind=kind))

@@ -1,0 +1,379 @@
+"""Signal blocks: the per-step physics of an effect, written once and compiled.
+
+A block acts on R channel rows (K tests × n channels, row ``k·n + j``) one interface step ΔT
+at a time. It holds ``params`` (R, P) and ``state`` (R, S) float arrays and a numba kernel
+
+    kernel(params, state, u, y, w)      # u, y, w: (R,) input, output, standard-normal draw
+
+that maps the step's input rows ``u`` to the outputs ``y`` (``w`` is used only by noise).
+Every block at its "off" setting passes its input through unchanged, bit for bit. The same
+kernel serves the compiled loop (:mod:`rths3d.stepping`), the Python loop (a block is
+callable on (K, n) arrays) and whole recorded signals (:func:`run_blocks`, used by the
+diagnosis to apply an effect to a replay), so each piece of physics exists once.
+
+A :class:`Chain` applies blocks in order; its kernels are called as first-class functions
+by one compiled caller (:func:`run_chain`), so a new block needs no new loop code.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Sequence
+from typing import Any, ClassVar
+
+import numba
+import numpy as np
+from numba import types
+
+__all__ = ["BLOCK_SIG", "Block", "Chain", "DelayBlock", "GainBlock", "LTIBlock", "LagBlock",
+           "NoiseBlock", "OffsetBlock", "block_kernel", "njit", "run_chain", "run_blocks"]
+
+# chains call their blocks' kernels as first-class functions (one compiled caller for every
+# sequence of blocks); numba still labels that feature experimental
+warnings.filterwarnings("ignore", category=numba.NumbaExperimentalFeatureWarning)
+
+njit = numba.njit(cache=True, nogil=True)
+"""numba's compiler with the project's settings (on-disk cache, no GIL)."""
+
+F2 = types.float64[:, ::1]
+F1 = types.float64[::1]
+BLOCK_SIG = types.void(F2, F2, F1, F1, F1)
+"""Signature of every block kernel: (params, state, u, y, w). Part models use the same
+shape: (params, state, z_from, z_to, F)."""
+
+
+def block_kernel(fn: Any) -> Any:
+    """Compile ``fn`` as a block kernel (:data:`BLOCK_SIG`, cached)."""
+    return numba.njit(BLOCK_SIG, cache=True, nogil=True)(fn)
+
+
+def _rows(value: Any, R: int) -> np.ndarray:
+    """``value`` (a scalar or one per row) as a float array of R rows."""
+    a = np.asarray(value, dtype=float).reshape(-1)
+    if a.size == 1:
+        return np.full(R, float(a[0]))
+    if a.size != R:
+        raise ValueError(f"{a.size} values given for {R} rows")
+    return a.copy()
+
+
+class Block:
+    """Base class: a stateful per-step signal block over R = K·n rows (see module docstring).
+
+    Subclasses set :attr:`kernel` (a numba function), fill ``params`` and ``state0`` in their
+    constructor and may set :attr:`uses_noise`.
+    """
+
+    kernel: ClassVar[Any]
+    uses_noise: ClassVar[bool] = False
+
+    def __init__(self, K: int, n: int, params: np.ndarray, state0: np.ndarray):
+        self.K, self.n = int(K), int(n)
+        self.params = np.ascontiguousarray(params, dtype=float)
+        self.state0 = np.ascontiguousarray(state0, dtype=float)
+        self.state = self.state0.copy()
+        self._y = np.zeros((self.K, self.n))
+        self._w = np.zeros(self.K * self.n)
+
+    @property
+    def rows(self) -> int:
+        return self.K * self.n
+
+    def reset(self) -> None:
+        self.state[:] = self.state0
+
+    def draw(self, out: np.ndarray) -> None:
+        """Fill ``out`` (steps, R) with the standard-normal draws of the next steps (noise
+        blocks; others leave it as it is)."""
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        """One step on (K, n) inputs; returns the (K, n) outputs (a buffer of the block)."""
+        w = self._w
+        if self.uses_noise:
+            self.draw(w[None, :])
+        type(self).kernel(self.params, self.state, np.ascontiguousarray(u).reshape(-1),
+                          self._y.reshape(-1), w)
+        return self._y
+
+
+# ---------------------------------------------------------------------------- kernels
+@block_kernel
+def _delay_kernel(p, s, u, y, w):
+    # p: [d0, frac, size]; s: [slot, ring buffer...]
+    for r in range(u.shape[0]):
+        d0 = int(p[r, 0])
+        fr = p[r, 1]
+        size = int(p[r, 2])
+        i = int(s[r, 0])
+        s[r, 1 + i] = u[r]
+        a = s[r, 1 + (i - d0) % size]
+        if fr != 0.0:
+            b = s[r, 1 + (i - d0 - 1) % size]
+            y[r] = a * (1.0 - fr) + b * fr
+        else:
+            y[r] = a
+        s[r, 0] = (i + 1) % size
+
+
+@block_kernel
+def _lag_kernel(p, s, u, y, w):
+    # first-order lag, discrete: s += α (u − s), α = 1 − e^(−ΔT/τ); α = 1 passes u
+    for r in range(u.shape[0]):
+        a = p[r, 0]
+        if a < 1.0:
+            s[r, 0] += (u[r] - s[r, 0]) * a
+        else:
+            s[r, 0] = u[r]
+        y[r] = s[r, 0]
+
+
+@block_kernel
+def _gain_kernel(p, s, u, y, w):
+    for r in range(u.shape[0]):
+        y[r] = u[r] * p[r, 0]
+
+
+@block_kernel
+def _offset_kernel(p, s, u, y, w):
+    for r in range(u.shape[0]):
+        y[r] = u[r] + p[r, 0]
+
+
+@block_kernel
+def _noise_kernel(p, s, u, y, w):
+    for r in range(u.shape[0]):
+        y[r] = u[r] + w[r] * p[r, 0]
+
+
+@block_kernel
+def _lti_kernel(p, s, u, y, w):
+    # p: [ns, Ad (m×m row-major), Bd (m), Cd (m), Dd] with m the largest order of the rows;
+    # s: [x (m), x_next (m)]; zero-order hold of u over the step, y at its end
+    m = s.shape[1] // 2
+    for r in range(u.shape[0]):
+        ns = int(p[r, 0])
+        ur = u[r]
+        for i in range(ns):
+            acc = 0.0
+            for j in range(ns):
+                acc += s[r, j] * p[r, 1 + i * m + j]
+            s[r, m + i] = acc + ur * p[r, 1 + m * m + i]
+        acc = 0.0
+        for i in range(ns):
+            s[r, i] = s[r, m + i]
+            acc += s[r, i] * p[r, 1 + m * m + m + i]
+        d = p[r, 1 + m * m + 2 * m]
+        if d != 0.0:
+            acc += d * ur
+        y[r] = acc
+
+
+# ---------------------------------------------------------------------------- blocks
+class DelayBlock(Block):
+    """Pure delay τ (s) per row, linear interpolation between samples for fractional delays;
+    the output is 0 before t = τ (the loop starts at rest)."""
+
+    kernel = _delay_kernel
+
+    def __init__(self, K: int, n: int, delay: float | Sequence[float], dt: float):
+        """``delay``: τ (s), one for all rows or one per row."""
+        per_row = _rows(delay, K * n)
+        steps = per_row / dt
+        d0 = np.floor(steps + 1e-12)
+        size = int(d0.max()) + 2 if d0.size else 2
+        params = np.stack([d0, steps - d0, np.full(d0.shape, size)], axis=1)
+        super().__init__(K, n, params, np.zeros((K * n, size + 1)))
+        self.delays = per_row
+
+
+class LagBlock(Block):
+    """First-order lag 1/(1 + sτ) with time constant τ (s) per row, discretised as
+    s_{n+1} = s_n + α (u − s_n), α = 1 − e^(−ΔT/τ); τ = 0 passes the input."""
+
+    kernel = _lag_kernel
+
+    def __init__(self, K: int, n: int, time_constant: float | Sequence[float], dt: float):
+        tc = _rows(time_constant, K * n)
+        alpha = np.array([lag_alpha(dt, t) for t in tc])
+        super().__init__(K, n, alpha[:, None], np.zeros((K * n, 1)))
+
+
+class GainBlock(Block):
+    """y = g·u per row (1: off)."""
+
+    kernel = _gain_kernel
+
+    def __init__(self, K: int, n: int, gain: float | Sequence[float]):
+        super().__init__(K, n, _rows(gain, K * n)[:, None], np.zeros((K * n, 0)))
+
+
+class OffsetBlock(Block):
+    """y = u + b per row (0: off)."""
+
+    kernel = _offset_kernel
+
+    def __init__(self, K: int, n: int, offset: float | Sequence[float]):
+        super().__init__(K, n, _rows(offset, K * n)[:, None], np.zeros((K * n, 0)))
+
+
+class NoiseBlock(Block):
+    """y = u + σ·w, w white standard-normal, σ per row (0: off).
+
+    ``seed``: one seed (one generator drawn across all rows, row by row per step) or one per
+    test (each test's rows from its own generator, so that a test's noise depends on its own
+    seed, not on the tests stepped with it)."""
+
+    kernel = _noise_kernel
+    uses_noise = True
+
+    def __init__(self, K: int, n: int, std: float | Sequence[float],
+                 seed: int | Sequence[int] = 0):
+        super().__init__(K, n, _rows(std, K * n)[:, None], np.zeros((K * n, 0)))
+        if not isinstance(seed, int | np.integer) and len(seed) != K:
+            raise ValueError(f"seed: {len(seed)} seeds given for K = {K} tests")
+        self.seed = seed
+        self.reset()
+
+    def reset(self) -> None:
+        super().reset()
+        if isinstance(self.seed, int | np.integer):
+            self._rng: Any = np.random.default_rng(int(self.seed))
+        else:
+            self._rng = [np.random.default_rng(int(s)) for s in self.seed]
+
+    def draw(self, out: np.ndarray) -> None:
+        if isinstance(self._rng, list):
+            # per test: its rows of each step, in step order, from its own generator
+            view = out.reshape(out.shape[0], self.K, self.n)
+            for k, g in enumerate(self._rng):
+                view[:, k, :] = g.standard_normal((out.shape[0], self.n))
+        else:
+            self._rng.standard_normal(out=out)
+
+
+class LTIBlock(Block):
+    """Discrete state-space model per row: x_{n+1} = A_d x_n + B_d u_n, y_{n+1} = C_d x_{n+1}
+    + D_d u_n (u held over the step). Rows may have models of different orders (padded)."""
+
+    kernel = _lti_kernel
+
+    def __init__(self, K: int, n: int, models: Sequence[tuple[np.ndarray, np.ndarray,
+                                                              np.ndarray, float]]):
+        """``models``: one (A_d, B_d, C_d, D_d) per row, or one for all rows."""
+        R = K * n
+        if len(models) == 1:
+            models = list(models) * R
+        if len(models) != R:
+            raise ValueError(f"{len(models)} models given for {R} rows")
+        m = max(1, max(np.atleast_2d(a).shape[0] if np.size(a) else 0 for a, *_ in models))
+        params = np.zeros((R, 2 + m * m + 2 * m))
+        for r, (A, B, C, D) in enumerate(models):
+            ns = np.atleast_2d(A).shape[0] if np.size(A) else 0
+            params[r, 0] = ns
+            if ns:
+                params[r, 1:1 + m * m].reshape(m, m)[:ns, :ns] = A
+                params[r, 1 + m * m:1 + m * m + ns] = np.ravel(B)
+                params[r, 1 + m * m + m:1 + m * m + m + ns] = np.ravel(C)
+            params[r, 1 + m * m + 2 * m] = float(D)
+        super().__init__(K, n, params, np.zeros((R, 2 * m)))
+        self.order = m
+
+
+# ---------------------------------------------------------------------------- chains
+@block_kernel
+def _pass_kernel(p, s, u, y, w):
+    for r in range(u.shape[0]):
+        y[r] = u[r]
+
+
+@njit
+def run_chain(fns, ps, ss, u, y, w):
+    """Apply the block kernels ``fns`` in order to the rows ``u`` (outputs in ``y``)."""
+    fns[0](ps[0], ss[0], u, y, w)
+    for i in range(1, len(fns)):
+        fns[i](ps[i], ss[i], y, y, w)
+
+
+_EMPTY = np.zeros((0, 0))
+
+
+class Chain:
+    """Blocks applied in order (an actuator or sensor chain), callable on (K, n) arrays.
+
+    ``fns``, ``params``, ``states``: the kernels and their argument tuples, for the compiled
+    loop (an empty chain holds one pass-through kernel). At most one block may draw noise
+    (its draws are the chain's ``w``).
+    """
+
+    def __init__(self, K: int, n: int, blocks: Sequence[Block]):
+        self.K, self.n = int(K), int(n)
+        self.blocks = list(blocks)
+        noisy = [b for b in self.blocks if b.uses_noise]
+        if len(noisy) > 1:
+            raise ValueError("a chain takes at most one noise block")
+        self.noise = noisy[0] if noisy else None
+        if self.blocks:
+            self.fns = tuple(type(b).kernel for b in self.blocks)
+            self.params = tuple(b.params for b in self.blocks)
+            self.states = tuple(b.state for b in self.blocks)
+        else:
+            self.fns, self.params, self.states = (_pass_kernel,), (_EMPTY,), (_EMPTY,)
+        self._y = np.zeros((self.K, self.n))
+        self._w = np.zeros(self.K * self.n)
+
+    @property
+    def empty(self) -> bool:
+        return not self.blocks
+
+    def reset(self) -> None:
+        for b in self.blocks:
+            b.reset()
+
+    def draw(self, out: np.ndarray) -> None:
+        """Fill ``out`` (steps, R) with the noise draws of the next steps (if any)."""
+        if self.noise is not None:
+            self.noise.draw(out)
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        if not self.blocks:
+            return u
+        if self.noise is not None:
+            self.noise.draw(self._w[None, :])
+        # from Python: one direct call per block (passing the tuple of kernels to
+        # run_chain costs its typing, ~0.5 ms, on every call; the compiled loop passes it
+        # once per run)
+        y = self._y.reshape(-1)
+        x = np.ascontiguousarray(u).reshape(-1)
+        for f, p, s in zip(self.fns, self.params, self.states, strict=True):
+            f(p, s, x, y, self._w)
+            x = y
+        return self._y
+
+
+@njit
+def _run_signal(fns, ps, ss, u, y, w):
+    for n in range(u.shape[0]):
+        run_chain(fns, ps, ss, u[n], y[n], w[n % w.shape[0]])
+
+
+def run_blocks(blocks: Sequence[Block], u: np.ndarray) -> np.ndarray:
+    """Apply fresh blocks to a whole signal ``u`` ((N,) or (N, rows)), step by step, in
+    one compiled call; returns the output signal of the same shape."""
+    x = np.asarray(u, dtype=float)
+    flat = x.reshape(len(x), -1)
+    R = flat.shape[1]
+    chain = Chain(1, R, blocks)
+    chain.reset()
+    w = np.zeros((1, R))
+    if chain.noise is not None:
+        w = np.empty((len(x), R))
+        chain.draw(w)
+    y = np.empty_like(flat)
+    _run_signal(chain.fns, chain.params, chain.states, np.ascontiguousarray(flat), y, w)
+    return y.reshape(x.shape)
+
+
+def lag_alpha(dt: float, time_constant: float) -> float:
+    """α = 1 − e^(−ΔT/τ) of :class:`LagBlock` (1 for τ = 0)."""
+    return 1.0 - math.exp(-dt / time_constant) if time_constant > 0 else 1.0

@@ -1,0 +1,42 @@
+"""The compiled step of the linear numerical substructure (shared by both loop drivers)."""
+
+from __future__ import annotations
+
+from ..effects.blocks import njit
+
+__all__ = ["linear_step"]
+
+
+@njit
+def linear_step(Ad, Bf, P, n, f, s, s_next, Czx, Czv, Cx, z, zd, x):
+    """s_{n+1} = A_d s_n + P_n − B_f F'_m(t_n) per test (matrices shared when their first
+    axis is 1), then z = C_zx s, ż = C_zv s, x = C_x s."""
+    K, S = s.shape
+    nd = f.shape[1]
+    shared = Ad.shape[0] == 1
+    for k in range(K):
+        kk = 0 if shared else k
+        for i in range(S):
+            acc = 0.0
+            for j in range(S):
+                acc += s[k, j] * Ad[kk, i, j]
+            acc += P[k, n, i]
+            fb = 0.0
+            for d in range(nd):
+                fb += f[k, d] * Bf[kk, i, d]
+            s_next[k, i] = acc - fb
+        for i in range(S):
+            s[k, i] = s_next[k, i]
+        for j in range(z.shape[1]):
+            a = 0.0
+            b = 0.0
+            for i in range(S):
+                a += s[k, i] * Czx[j, i]
+                b += s[k, i] * Czv[j, i]
+            z[k, j] = a
+            zd[k, j] = b
+        for j in range(x.shape[1]):
+            a = 0.0
+            for i in range(S):
+                a += s[k, i] * Cx[j, i]
+            x[k, j] = a

@@ -1,0 +1,121 @@
+"""Transfer systems made of a chain: compensator → actuator model → part model → sensor.
+
+The ``ideal``, ``delay`` and ``lti`` transfer systems differ only in their actuator chain
+(none, a pure delay, a delay and an LTI model); each is one subclass in its own file. Every
+stage has a compiled kernel (the 1-D parts' numpy model, the effect blocks, the
+compensators), so these systems run in the compiled loop unless the part has only a MuJoCo
+model (the multi-DOF part), in which case the loop steps them from Python with the same
+kernels.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Hashable, Mapping, Sequence
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..config import Scene
+from ..effects.blocks import Chain
+from ..experiment import build_part_model, part_class
+from .base import CompiledTransfer, RecordSignal, sensor_key, setting
+from .compensators import Compensator, compensator_class
+from .sensor import sensor_chain
+
+__all__ = ["ChainTransfer"]
+
+
+class ChainTransfer:
+    """Compensation, actuator chain, part model and sensor chain, K tests (see the module
+    docstring). Subclasses set :attr:`kind` and implement :meth:`actuator_chain` (and, if
+    their actuators change the batch structure, :meth:`actuator_key`)."""
+
+    kind: ClassVar[str] = ""
+    signals: tuple[RecordSignal, ...] = ()
+
+    def __init__(self, scenes: Sequence[Scene], compensator: Compensator, actuator: Chain,
+                 part: Any, sensor: Chain, metas: Sequence[dict[str, Any]]):
+        self.scenes = list(scenes)
+        K, n = len(self.scenes), len(self.scenes[0].dofs)
+        self.K, self.n_if = K, n
+        self.compensator = compensator
+        self.actuator = actuator
+        self.part = part
+        self.sensor = sensor
+        self.metas = list(metas)
+        self.z_meas = np.zeros((K, n))
+        self.z_prev = np.zeros((K, n))
+        self.f_meas = np.zeros((K, n))
+        self.f_true = np.zeros((K, n))
+        self.u = np.zeros((K, n))
+        self.stopped = np.zeros(K, dtype=bool)
+        self.reasons = [""] * K
+        self.part_model = "numpy" if part.compiled() is not None else "mujoco"
+        """The part's model, ``numpy`` or ``mujoco`` (the reference uses the same)."""
+
+    # ------------------------------------------------------------------ building
+    @classmethod
+    def actuator_chain(cls, scenes: Sequence[Scene], n: int
+                       ) -> tuple[Chain, list[dict[str, Any]]]:
+        """The actuator chain of K tests and each test's transfer metadata."""
+        raise NotImplementedError
+
+    @classmethod
+    def actuator_key(cls, settings: Mapping[str, Any]) -> Hashable:
+        """What of the transfer settings must be equal for tests stepped together: the
+        actuators' settings (delay, model, servo gains, lag, feed-forward, compensation time)
+        are per test; the platform's physics ``substeps`` keeps tests apart, as on the
+        platform."""
+        return (setting(settings, "transfer.substeps", 1),)
+
+    @classmethod
+    def build(cls, scenes: Sequence[Scene], *, nthread: int = 0,
+              specimen: str = "auto") -> ChainTransfer:
+        base = scenes[0]
+        n = len(base.dofs)
+        comp = compensator_class(base.transfer.compensation).from_scenes(scenes, n)
+        act, metas = cls.actuator_chain(scenes, n)
+        part = build_part_model([s.experiment for s in scenes], base.dofs, base.dt,
+                                model=specimen, nthread=nthread)
+        model = "numpy" if part.compiled() is not None else "mujoco"
+        metas = [{"specimen": model, **m} for m in metas]
+        return cls(scenes, comp, act, part, sensor_chain(scenes, n), metas)
+
+    @classmethod
+    def batch_key(cls, settings: Mapping[str, Any]) -> Hashable:
+        comp = compensator_class(settings.get("transfer.compensation", "none"))
+        return (comp.batch_key(settings), cls.actuator_key(settings),
+                part_class(settings.get("experiment.kind", "contact")).batch_key(settings),
+                sensor_key(settings))
+
+    # ------------------------------------------------------------------ stepping
+    def reset(self) -> None:
+        self.compensator.reset()
+        self.actuator.reset()
+        self.part.reset()
+        self.sensor.reset()
+        for a in (self.z_meas, self.z_prev, self.f_meas, self.f_true, self.u):
+            a[:] = 0.0
+        self.stopped[:] = False
+        self.reasons = [""] * self.K
+
+    def step(self, z: np.ndarray, zdot: np.ndarray) -> None:
+        u = self.compensator(z, zdot, self.z_meas)
+        zm = self.actuator(u)
+        f = self.part.advance(self.z_prev, zm)
+        self.f_true[:] = f
+        self.f_meas[:] = self.sensor(f)
+        self.z_prev[:] = zm
+        self.z_meas[:] = zm
+
+    def compiled(self) -> CompiledTransfer | None:
+        part = self.part.compiled()
+        if part is None:
+            return None
+        c = self.compensator
+        a, s = self.actuator, self.sensor
+        return CompiledTransfer(((type(c).kernel,), c.params, c.state),
+                                (a.fns, a.params, a.states), ((part[0],), part[1], part[2]),
+                                (s.fns, s.params, s.states),
+                                a if a.noise is not None else None,
+                                s if s.noise is not None else None)

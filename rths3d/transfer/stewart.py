@@ -1,0 +1,151 @@
+"""The MuJoCo Stewart platform as transfer system: the part rides on its FTS, K tests."""
+
+from __future__ import annotations
+
+from collections.abc import Hashable, Mapping, Sequence
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..config import Scene, TransferConfig
+from ..effects.blocks import njit
+from ..experiment import make_part, part_class
+from ..platform.model import ActuatorConfig, PlatformConfig, predicted_delay
+from ..platform.sim import PlatformBatch, plate_pose
+from ..record import DOFS
+from .base import RecordSignal, register_transfer, sensor_key, setting
+from .compensators import compensator_class
+from .sensor import sensor_chain
+
+__all__ = ["StewartTransfer", "platform_config"]
+
+
+def platform_config(scene: Scene, tr: TransferConfig | None = None) -> PlatformConfig:
+    """The platform configuration of a scene's leg-servo settings (``transfer.*``)."""
+    t = tr or scene.transfer
+    return PlatformConfig(actuator=ActuatorConfig(kp=t.kp, kv=t.kv, timeconst=t.timeconst,
+                                                  delay=t.delay, velocity_ff=t.velocity_ff),
+                          dt=scene.dt, substeps=t.substeps)
+
+
+@njit
+def _interface_pose(q, hh, idx, out):
+    """Achieved interface DOFs ``idx`` (of x y z rx ry rz) from plate qpos rows (K, 7)."""
+    for k in range(q.shape[0]):
+        w, x, y, z = q[k, 3], q[k, 4], q[k, 5], q[k, 6]
+        for c in range(idx.shape[0]):
+            i = idx[c]
+            if i < 3:
+                out[k, c] = q[k, i] - (hh if i == 2 else 0.0)
+            elif i == 3:
+                out[k, c] = np.arctan2(2 * (y * z + w * x), 1 - 2 * (x * x + y * y))
+            elif i == 4:
+                out[k, c] = np.arcsin(min(max(2 * (w * y - x * z), -1.0), 1.0))
+            else:
+                out[k, c] = np.arctan2(2 * (x * y + w * z), 1 - 2 * (y * y + z * z))
+
+
+@register_transfer
+class StewartTransfer:
+    """The six-leg platform carrying the part on its FTS (:class:`PlatformBatch`).
+
+    Tests stepped together may differ in their leg-servo settings (kp, kv, velocity
+    feed-forward, the lag's time constant) and their part's parameters: each runs its own
+    compiled model of one structure. The actuator delay, whether the servo has a lag, the
+    physics substeps and the part's kind change the structure (:meth:`batch_key`). Adds the
+    record signals ``pose_cmd.*`` and ``pose_meas.*`` (plate pose commanded and achieved,
+    relative to home, m and rad). MuJoCo runs from Python: no compiled kernel.
+    """
+
+    kind: ClassVar[str] = "stewart"
+
+    def __init__(self, scenes: Sequence[Scene], nthread: int = 0):
+        self.scenes = list(scenes)
+        base = self.scenes[0]
+        K = len(self.scenes)
+        self.K, self.n_if = K, len(base.dofs)
+        cfg = platform_config(base)
+        self.config = cfg
+        g = cfg.geometry
+        site = (0.0, 0.0, g.home_height + g.fts_height)
+        variants = [(platform_config(s), make_part(s.experiment).payload_xml(),
+                     make_part(s.experiment).world_xml(site)) for s in self.scenes]
+        one = len(set(variants)) == 1
+        self.sim = PlatformBatch(cfg, nsim=K, nthread=nthread or 2, payload_xml=variants[0][1],
+                                 world_xml=variants[0][2], variants=None if one else variants)
+        self.idx = np.array([DOFS.index(d) for d in base.dofs], dtype=np.int64)
+        self.compensator = compensator_class(base.transfer.compensation).from_scenes(
+            self.scenes, self.n_if)
+        self.sensor = sensor_chain(self.scenes, self.n_if)
+        self.pose_cmd = np.zeros((K, 6))
+        self.home_height = float(g.home_height)
+        self.plate_qpos = self.sim.plate_qpos
+        """Live (K, 7) view of the plate's measured free-joint qpos (m, quaternion wxyz)."""
+        self.z_meas = np.zeros((K, self.n_if))
+        self.f_meas = np.zeros((K, self.n_if))
+        self.stopped = np.zeros(K, dtype=bool)
+        self.reasons = [""] * K
+        self.part_model = "mujoco"
+        """The part rides on the platform in MuJoCo (the reference uses the MuJoCo part)."""
+        home = np.array([0.0, 0.0, self.home_height, 1.0, 0.0, 0.0, 0.0])
+        self.signals = (
+            RecordSignal("pose_cmd", DOFS, self.pose_cmd),
+            RecordSignal("pose_meas", DOFS, self.plate_qpos,
+                         lambda q: plate_pose(q, self.home_height), home),
+        )
+
+        def meta_of(s: Scene, c: PlatformConfig) -> dict[str, Any]:
+            t = s.transfer
+            return {"predicted_delay": predicted_delay(c, 1.0), "kp": t.kp, "kv": t.kv,
+                    "timeconst": t.timeconst, "actuator_delay": t.delay,
+                    "velocity_ff": t.velocity_ff, "substeps": t.substeps}
+
+        self.metas = [meta_of(s, v[0]) for s, v in zip(self.scenes, variants, strict=True)]
+        """Per-test metadata (leg-servo settings and the delay they predict)."""
+
+    @classmethod
+    def build(cls, scenes: Sequence[Scene], *, nthread: int = 0,
+              specimen: str = "auto") -> StewartTransfer:
+        return cls(scenes, nthread)
+
+    @classmethod
+    def batch_key(cls, settings: Mapping[str, Any]) -> Hashable:
+        s = settings
+        comp = compensator_class(s.get("transfer.compensation", "none"))
+        return (comp.batch_key(s), setting(s, "transfer.delay", 0.0),
+                setting(s, "transfer.timeconst", 0.0) > 0, setting(s, "transfer.substeps", 1),
+                part_class(s.get("experiment.kind", "contact")).batch_key(s), sensor_key(s))
+
+    @property
+    def model(self):
+        return self.sim.model
+
+    @property
+    def pose_meas(self) -> np.ndarray:
+        """Achieved plate poses (K, 6) relative to home (m, rad)."""
+        return plate_pose(self.plate_qpos, self.home_height)
+
+    def reset(self) -> None:
+        self.sim.reset()
+        self.compensator.reset()
+        self.sensor.reset()
+        self.pose_cmd[:] = 0.0
+        self.z_meas[:] = 0.0
+        self.f_meas[:] = 0.0
+        self.stopped[:] = False
+        self.reasons = [""] * self.K
+
+    def step(self, z: np.ndarray, zdot: np.ndarray) -> None:
+        u = self.compensator(z, zdot, self.z_meas)
+        self.pose_cmd[:, self.idx] = u
+        sim = self.sim
+        sim.step(self.pose_cmd)
+        _interface_pose(self.plate_qpos, self.home_height, self.idx, self.z_meas)
+        self.f_meas[:] = self.sensor(sim.interface_force(self.idx))
+        if sim.stopped.any():
+            self.stopped[:] = sim.stopped
+            self.reasons = list(sim.reasons)
+
+    def compiled(self) -> None:
+        """MuJoCo runs from Python: the loop steps this system from Python."""
+        return None
