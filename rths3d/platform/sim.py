@@ -176,13 +176,19 @@ def _make_step(sim: PlatformSim):
         "    r20 = -sy; r21 = cy * sx",
         f"    tz = z + {g.home_height!r}",
     ]
+    planar = not np.any(p[:, 2] != 0)
+    if not planar:  # top anchors off the plate plane (a calibrated geometry)
+        lines.append("    r02 = cz * sy * cx + sz * sx; r12 = sz * sy * cx - cz * sx; "
+                     "r22 = cy * cx")
     for i in range(6):
-        px, py = float(p[i, 0]), float(p[i, 1])
+        px, py, pz = float(p[i, 0]), float(p[i, 1]), float(p[i, 2])
         bx, by, bz = (float(v) for v in b[i])
+        zx, zy, zz = ("", "", "") if planar else (
+            f" + r02 * {pz!r}", f" + r12 * {pz!r}", f" + r22 * {pz!r}")
         lines += [
-            f"    lx = x + r00 * {px!r} + r01 * {py!r} - {bx!r}",
-            f"    ly = y + r10 * {px!r} + r11 * {py!r} - {by!r}",
-            f"    lz = tz + r20 * {px!r} + r21 * {py!r} - {bz!r}",
+            f"    lx = x + r00 * {px!r} + r01 * {py!r}{zx} - {bx!r}",
+            f"    ly = y + r10 * {px!r} + r11 * {py!r}{zy} - {by!r}",
+            f"    lz = tz + r20 * {px!r} + r21 * {py!r}{zz} - {bz!r}",
             f"    L{i} = sqrt(lx * lx + ly * ly + lz * lz)",
         ]
     lines.append("    p0, p1, p2, p3, p4, p5 = prev")
@@ -556,6 +562,7 @@ class PlatformBatch:
         # anchors precomputed for the per-step inverse kinematics over tests
         self._b = g.base_anchors()
         self._p = g.top_anchors()
+        self._pz = self._p[:, 2].copy() if np.any(self._p[:, 2] != 0) else None
         self._hh = float(g.home_height)
         # pure translation (R = I): leg vector = q_xyz + (p − b) + [0, 0, h_home]
         self._a = (self._p - self._b) + np.array([0.0, 0.0, self._hh])
@@ -640,7 +647,7 @@ class PlatformBatch:
 
     def _ik(self, q: np.ndarray) -> np.ndarray:
         """Leg lengths (K, 6) of poses (K, 6): the kinematics of ``inverse_kinematics``
-        with the anchors precomputed (only the first two columns of R act on them)."""
+        with the anchors precomputed (the third column of R only for non-planar top anchors)."""
         cx, sx = np.cos(q[:, 3:4]), np.sin(q[:, 3:4])
         cy, sy = np.cos(q[:, 4:5]), np.sin(q[:, 4:5])
         cz, sz = np.cos(q[:, 5:6]), np.sin(q[:, 5:6])
@@ -649,6 +656,11 @@ class PlatformBatch:
         lx = q[:, 0:1] + (cz * cy) * px + (cz * sy * sx - sz * cx) * py - b[:, 0]
         ly = q[:, 1:2] + (sz * cy) * px + (sz * sy * sx + cz * cx) * py - b[:, 1]
         lz = (q[:, 2:3] + self._hh) - sy * px + (cy * sx) * py - b[:, 2]
+        if self._pz is not None:  # top anchors off the plate plane (a calibrated geometry)
+            pz = self._pz
+            lx = lx + (cz * sy * cx + sz * sx) * pz
+            ly = ly + (sz * sy * cx - cz * sx) * pz
+            lz = lz + (cy * cx) * pz
         return np.sqrt(lx * lx + ly * ly + lz * lz)
 
     def _ik_translation(self, q: np.ndarray) -> np.ndarray:
