@@ -217,7 +217,7 @@ def test_calibration_predicts_unseen_poses_to_noise_level(bench):
     assert t_cal < 3 * POSE_NOISE[0] and r_cal < 3 * POSE_NOISE[1]
     assert t_nom > 30 * POSE_NOISE[0] and r_nom > 30 * POSE_NOISE[1]
     assert ik_nom > 20 * ik_cal
-    # the fitted parameters agree with the MJCF edits within 3 standard deviations
+    # the fitted parameters agree with the MJCF edits within 4 standard deviations
     z = (cal.params_ - b["truth"]) / cal.std_
     assert np.all(np.isfinite(cal.std_)) and np.abs(z).max() < 4.0
     assert float(np.sqrt(np.mean(z ** 2))) < 2.0
@@ -452,3 +452,17 @@ def test_cli_calibrate_bad_input_one_line_exit_2(bench, tmp_path, capsys, case, 
     lines = err.strip().splitlines()
     assert code == 2 and len(lines) == 1, err
     assert needle in lines[0] and "Traceback" not in err
+
+
+def test_example_rejects_too_few_poses_in_one_line(tmp_path):
+    """examples/13: `--poses 3` is one `error:` line naming the flag, exit 2, nothing run."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[1] / "examples" / "13_kinematic_calibration.py"
+    out = subprocess.run([sys.executable, str(script), "--poses", "3", "--out",
+                          str(tmp_path / "o")], capture_output=True, text=True, timeout=120)
+    err = out.stderr.strip().splitlines()
+    assert out.returncode == 2 and len(err) == 1 and err[0].startswith("error: --poses: 3")
+    assert not (tmp_path / "o").exists()
