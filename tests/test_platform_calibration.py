@@ -27,6 +27,7 @@ from rths3d.platform.calibration import (
     geometry_from_parameters,
     identifiability,
     identification_jacobian,
+    leg_residuals,
     load_geometry,
     parameter_names,
     parameter_vector,
@@ -150,6 +151,9 @@ def test_jacobian_matches_central_differences():
         num[:, j] = (geometry_from_parameters(G, th + d).encoder_lengths(q)
                      - geometry_from_parameters(G, th - d).encoder_lengths(q)).ravel() / (2 * eps)
     assert J.shape == (24, 42)
+    g = geometry_from_parameters(G, th)
+    L = g.encoder_lengths(q) + rng.normal(0, 1e-5, (4, 6))
+    assert np.allclose(leg_residuals(g, q, L), g.encoder_lengths(q) - L, rtol=0, atol=1e-15)
     assert np.abs(J - num).max() < 1e-8
     assert parameter_names()[8] == "base_anchor[2].z" and parameter_names()[40] == "leg_offset[4]"
 
@@ -429,6 +433,7 @@ def test_cli_calibrate_writes_geometry_and_reports(bench, tmp_path, capsys):
     ("short", "need at least 7 poses"),
     ("suffix", "must be a .csv or .parquet file"),
     ("out", "--out"),
+    ("mm", "check units (m, rad)"),
 ])
 def test_cli_calibrate_bad_input_one_line_exit_2(bench, tmp_path, capsys, case, needle):
     """Bad input exits 2 with one line naming the field or path; the output path is checked
@@ -445,6 +450,9 @@ def test_cli_calibrate_bad_input_one_line_exit_2(bench, tmp_path, capsys, case, 
         frame.iloc[:5].to_csv(src, index=False)
     elif case == "suffix":
         argv[-1] = str(tmp_path / "poses.txt")
+    elif case == "mm":  # leg lengths written in mm
+        frame[[f"leg_len.{i}" for i in range(6)]] *= 1e3
+        frame.to_csv(src, index=False)
     elif case == "out":
         (tmp_path / "file").write_text("x")
         argv += ["--out", str(tmp_path / "file" / "g.json")]

@@ -296,13 +296,28 @@ def _check_data(poses: Any, leg_lengths: Any | None = None) -> tuple[np.ndarray,
     return q, L
 
 
-def _unit_legs(geom: StewartGeometry, q: np.ndarray) -> tuple[np.ndarray, np.ndarray,
-                                                              np.ndarray]:
-    """Rotations (N, 3, 3), leg vectors (N, 6, 3) and unit leg vectors (N, 6, 3)."""
-    R = rotation_matrix(q[:, 3], q[:, 4], q[:, 5])
-    lv = (q[:, None, :3] + geom.home_position() + np.einsum("kab,ib->kia", R, geom.top_anchors())
-          - geom.base_anchors())
-    return R, lv, lv / np.linalg.norm(lv, axis=-1, keepdims=True)
+def _model(theta: np.ndarray, q: np.ndarray, R: np.ndarray,
+           h: float) -> tuple[np.ndarray, np.ndarray]:
+    """Encoder lengths (N, 6) of model (1) and the Jacobian (N, 6, 42) of (2) straight from
+    the parameter vector (no geometry object, so optimiser trial steps need no validation)."""
+    b = theta[:18].reshape(6, 3)
+    p = theta[18:36].reshape(6, 3)
+    lv = np.einsum("kab,ib->kia", R, p) - b
+    lv[..., :2] += q[:, None, :2]
+    lv[..., 2] += q[:, None, 2] + h
+    n_ = np.linalg.norm(lv, axis=-1)
+    u = lv / n_[..., None]
+    J = np.zeros(q.shape[:1] + (6, N_PARAMETERS))
+    rtu = np.einsum("kba,kib->kia", R, u)  # Rᵀ u_i
+    for i in range(6):
+        J[:, i, 3 * i:3 * i + 3] = -u[:, i]
+        J[:, i, 18 + 3 * i:18 + 3 * i + 3] = rtu[:, i]
+        J[:, i, 36 + i] = 1.0
+    return n_ + theta[36:], J
+
+
+def _rotations(q: np.ndarray) -> np.ndarray:
+    return rotation_matrix(q[:, 3], q[:, 4], q[:, 5])
 
 
 def leg_residuals(geom: StewartGeometry, poses: np.ndarray,
@@ -310,24 +325,15 @@ def leg_residuals(geom: StewartGeometry, poses: np.ndarray,
     """Model minus measured encoder lengths, (N, 6), m (model (1); offsets of a plain
     ``StewartGeometry`` are zero)."""
     q, L = _check_data(poses, leg_lengths)
-    model = (geom.encoder_lengths(q) if isinstance(geom, CalibratedGeometry)
-             else inverse_kinematics(geom, q))
-    return model - L
+    return _model(parameter_vector(geom), q, _rotations(q), geom.home_height)[0] - L
 
 
 def identification_jacobian(geom: StewartGeometry, poses: np.ndarray) -> np.ndarray:
     """∂L/∂θ of the encoder lengths, (6N, 42), rows pose-major (pose k, leg i → row 6k + i),
     columns in :func:`parameter_names` order; dimensionless (m/m). Equation (2)."""
     q, _ = _check_data(poses)
-    R, _, u = _unit_legs(geom, q)
-    n = q.shape[0]
-    J = np.zeros((n, 6, N_PARAMETERS))
-    rtu = np.einsum("kba,kib->kia", R, u)  # Rᵀ u_i
-    for i in range(6):
-        J[:, i, 3 * i:3 * i + 3] = -u[:, i]
-        J[:, i, 18 + 3 * i:18 + 3 * i + 3] = rtu[:, i]
-        J[:, i, 36 + i] = 1.0
-    return J.reshape(6 * n, N_PARAMETERS)
+    J = _model(parameter_vector(geom), q, _rotations(q), geom.home_height)[1]
+    return J.reshape(6 * q.shape[0], N_PARAMETERS)
 
 
 def gauge_directions(geom: StewartGeometry) -> list[tuple[str, np.ndarray, str]]:
@@ -503,7 +509,8 @@ def identifiability(geom: StewartGeometry, poses: np.ndarray, sigma: float = 1.0
     ss = np.linalg.svd(Js, compute_uv=False)
     cond = float(ss[0] / ss[-1]) if ss[-1] > 0 and np.all(norms > 0) else math.inf
     # the unscaled SVD gives the physical standard deviations (all parameters are in m)
-    _, s, Vt = np.linalg.svd(J, full_matrices=True)
+    # full V (42×42) without the (6N)² U of a long record
+    _, s, Vt = np.linalg.svd(J, full_matrices=J.shape[0] < N_PARAMETERS)
     s = np.concatenate([s, np.zeros(N_PARAMETERS - s.size)])
     V = Vt.T
     null = s <= rcond * s[0]
@@ -605,26 +612,38 @@ class KinematicCalibration:
                                                    "per leg)")
         th0 = parameter_vector(self.nominal)
         nominal = self.nominal
+        R = _rotations(q)
+        h = float(nominal.home_height)
+        L0 = _model(th0, q, R, h)[0]
+        far = np.abs(L0 - L) > nominal.stroke / 2
+        if np.any(far):
+            k, i = (int(v) for v in np.argwhere(far)[0])
+            raise ConfigError(f"leg_lengths[{k}][{i}]", float(L[k, i]), "", message=(
+                f"leg_lengths[{k}][{i}]: {L[k, i]:.6g} m is {L[k, i] - L0[k, i]:+.4g} m off the "
+                f"nominal model's {L0[k, i]:.6g} m at that pose, more than half the stroke "
+                f"({nominal.stroke / 2:.4g} m): check units (m, rad) and the leg order"))
         w = 1.0 / self.sigma
         wp = None if self.prior_sigma is None else 1.0 / self.prior_sigma
 
-        def geom(th: np.ndarray) -> CalibratedGeometry:
-            return geometry_from_parameters(nominal, th)
-
         def fun(th: np.ndarray) -> np.ndarray:
-            r = (leg_residuals(geom(th), q, L) * w).reshape(-1)
+            r = ((_model(th, q, R, h)[0] - L) * w).reshape(-1)
             return r if wp is None else np.concatenate([r, (th - th0) * wp])
 
         def jac(th: np.ndarray) -> np.ndarray:
-            J = identification_jacobian(geom(th), q) * w
+            J = _model(th, q, R, h)[1].reshape(-1, N_PARAMETERS) * w
             return J if wp is None else np.vstack([J, np.eye(N_PARAMETERS) * wp])
 
         sol = least_squares(fun, th0, jac=jac, method="lm", xtol=1e-15, ftol=1e-15,
                             gtol=1e-15, max_nfev=200)
         th = sol.x
+        try:
+            self.geometry_ = geometry_from_parameters(nominal, th)
+        except ConfigError as exc:
+            raise ConfigError("poses/leg_lengths", None, "", message=(
+                f"the fitted geometry is implausible ({exc}): check the units (m, rad), the "
+                "leg order and that the poses are absolute measurements")) from None
         self.params_ = th
         self.deviation_ = th - th0
-        self.geometry_ = geom(th)
         self.residuals_ = leg_residuals(self.geometry_, q, L)
         self.rms_ = float(np.sqrt(np.mean(self.residuals_ ** 2)))
         self.nominal_rms_ = float(np.sqrt(np.mean(leg_residuals(nominal, q, L) ** 2)))

@@ -274,10 +274,10 @@ class PayloadEstimator:
                            (AT, W[:, 3:].reshape(-1), "centre of mass")):
             sv = np.linalg.svd(A / np.linalg.norm(A, axis=0), compute_uv=False)
             if A.shape[0] <= A.shape[1] or not sv[-1] > 1e-8 * sv[0]:
-                hint = ("tilt the payload about two axes" if fit_o
-                        else "tilt the payload at least once")
-                raise ConfigError("orientations", f"{n} orientations", f"cannot separate the "
-                                  f"{what} from the offset: {hint}")
+                hint = ("apart from the offset: tilt the payload about two axes" if fit_o
+                        else "from one orientation: tilt the payload at least once")
+                raise ConfigError("orientations", f"{n} orientations",
+                                  f"cannot determine the {what} {hint}")
             x, *_ = np.linalg.lstsq(A, y, rcond=None)
             r = (y - A @ x).reshape(n, 3)
             s2 = float(np.sum(r ** 2) / max(A.shape[0] - A.shape[1], 1))
