@@ -1,4 +1,4 @@
-"""CLI commands: ``rths3d platform track`` and ``rths3d platform identify``.
+"""CLI commands: ``rths3d platform track``, ``identify``, ``info`` and ``calibrate``.
 
 Heavy imports (mujoco, matplotlib) stay inside the command functions so ``rths3d --help``
 stays fast.
@@ -17,7 +17,8 @@ from ._app import app
 
 platform_app = typer.Typer(
     name="platform",
-    help="The simulated Stewart platform: pose-tracking demo and heave identification.",
+    help="The simulated Stewart platform: pose-tracking demo, heave identification and "
+         "kinematic calibration.",
     no_args_is_help=True,
 )
 app.add_typer(platform_app, name="platform")
@@ -221,3 +222,73 @@ def info(
         return
     for k, v in figures.items():
         typer.echo(f"{k:28s} {v}")
+
+
+def _mm(v: float) -> str:
+    return f"{v * 1e3:+9.4f}" if v == v and abs(v) < 1e9 else "      inf"
+
+
+@platform_app.command()
+def calibrate(
+    poses: Path = typer.Argument(..., help="Measurements (.csv or .parquet): columns "
+                                           "pose_meas.x … pose_meas.rz (absolute measured "
+                                           "pose relative to home, m and rad) and leg_len.0 "
+                                           "… leg_len.5 (encoder lengths, m); a track "
+                                           "record works too."),
+    out: Path = typer.Option(None, "--out", help="Write the calibrated geometry here (.json; "
+                                                 "load with rths3d.platform.calibration."
+                                                 "load_geometry)."),
+    nominal: Path = typer.Option(None, "--nominal", help="Nominal geometry (.json, as "
+                                                         "written by --out); default: the "
+                                                         "default platform."),
+    tolerance: float = typer.Option(1.0e-4, help="Largest standard deviation (m) for which "
+                                                 "a parameter counts as identified."),
+    as_json: bool = typer.Option(False, "--json", help="Print the figures as one JSON line."),
+) -> None:
+    """Kinematic calibration: fit the 42 parameters (base and top anchors, leg offsets) to
+    measured poses and leg lengths, and report what the pose set can identify.
+
+    Prints each parameter's deviation from nominal and its standard deviation (mm), the RMS
+    leg-length residual of the nominal and of the calibrated geometry, and the
+    identifiability report (condition number, parameters the poses cannot see, rigid
+    motions of the frames they do not pin). The frames are those of the pose measurement.
+    """
+    from ..errors import ConfigError
+    from ..platform import DEFAULT_GEOMETRY
+    from ..platform.calibration import KinematicCalibration, load_geometry, load_pose_table
+    from ._app import json_line
+
+    if out is not None:
+        if out.suffix.lower() != ".json":
+            raise ConfigError("--out", str(out), "the geometry file must end in .json")
+        check_output(out, "--out")
+    if not (tolerance > 0 and tolerance < 1):
+        raise ConfigError("--tolerance", tolerance, "must be in (0, 1) m")
+    geom = load_geometry(nominal) if nominal is not None else DEFAULT_GEOMETRY
+    q, L = load_pose_table(poses)
+    cal = KinematicCalibration(geom, tolerance=tolerance).fit(q, L)
+    summary = cal.summary()
+    if out is not None:
+        data = cal.geometry_.to_dict()
+        data["calibration"] = {k: v for k, v in summary.items() if k != "geometry"}
+        data["calibration"]["source"] = str(poses)
+        tmp = out.with_name(out.name + ".tmp")
+        tmp.write_text(json_line(data, indent=1))
+        os.replace(tmp, out)
+        summary["geometry_file"] = str(out)
+    if as_json:
+        summary.pop("geometry")
+        typer.echo(json_line(summary))
+        return
+    rep = cal.report_
+    typer.echo(f"poses {rep.n_poses}; RMS leg-length residual: nominal "
+               f"{cal.nominal_rms_ * 1e6:.2f} µm, calibrated {cal.rms_ * 1e6:.2f} µm")
+    typer.echo(f"{'parameter':<20s} {'deviation mm':>12s} {'std mm':>9s}")
+    for row in summary["parameters"]:
+        flag = "" if row["identified"] else "  not identified"
+        typer.echo(f"{row['name']:<20s} {_mm(row['deviation_m']):>12s} "
+                   f"{_mm(row['std_m']).replace('+', ' '):>9s}{flag}")
+    for line in rep.lines():
+        typer.echo(line)
+    typer.echo(f"geometry {out}" if out is not None else
+               "geometry not saved (use --out FILE.json)")

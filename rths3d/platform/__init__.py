@@ -1,9 +1,19 @@
-"""The six-leg Stewart platform: geometry, kinematics, MuJoCo model, simulation, tracking.
+"""The six-leg Stewart platform: geometry, kinematics, MuJoCo model, simulation, tracking,
+kinematic and force-torque-sensor calibration.
 
 Pose convention: ``(x, y, z, rx, ry, rz)`` of the top plate relative to home, translations in
 the world frame (m), rotations ``R = Rz(rz) @ Ry(ry) @ Rx(rx)`` (rad). See docs/platform.md.
 """
 
+from .calibration import (
+    CalibratedGeometry,
+    IdentifiabilityReport,
+    KinematicCalibration,
+    identifiability,
+    load_geometry,
+    select_poses,
+)
+from .fts_calibration import FTSCalibration, PayloadEstimator, load_wrench
 from .geometry import DEFAULT_GEOMETRY, StewartGeometry
 from .identify import HeaveTF, identify_heave, load_heave_tf
 from .kinematics import (
@@ -22,6 +32,15 @@ from .tracking import TrackingFigures, sine_delay, sine_trajectory, track, track
 __all__ = [
     "DEFAULT_GEOMETRY",
     "ActuatorConfig",
+    "CalibratedGeometry",
+    "FTSCalibration",
+    "IdentifiabilityReport",
+    "KinematicCalibration",
+    "PayloadEstimator",
+    "identifiability",
+    "load_geometry",
+    "load_wrench",
+    "select_poses",
     "PlatformBatch",
     "PlatformConfig",
     "PlatformSim",

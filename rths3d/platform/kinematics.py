@@ -216,14 +216,17 @@ class ScalarIK:
     """Inverse kinematics in plain ``math`` for one pose at a time (the 1 kHz fast path).
 
     ``ik(x, y, z, rx, ry, rz)`` returns the six leg lengths (m) as a tuple of floats, with no
-    numpy involved (small-array numpy costs several µs per call).
+    numpy involved (small-array numpy costs several µs per call). Top anchors off the plate
+    plane (a calibrated geometry, ``p_i,z ≠ 0``) take the third column of R as well.
     """
 
-    __slots__ = ("_b", "_p", "_h")
+    __slots__ = ("_b", "_p", "_h", "_pz")
 
     def __init__(self, geom: StewartGeometry):
         self._b = tuple(tuple(float(v) for v in row) for row in geom.base_anchors())
-        self._p = tuple(tuple(float(v) for v in row[:2]) for row in geom.top_anchors())
+        top = geom.top_anchors()
+        self._p = tuple(tuple(float(v) for v in row[:2]) for row in top)
+        self._pz = tuple(float(v) for v in top[:, 2]) if np.any(top[:, 2] != 0) else None
         self._h = float(geom.home_height)
 
     def ik(self, x: float, y: float, z: float, rx: float, ry: float,
@@ -235,7 +238,7 @@ class ScalarIK:
         sy = math.sin(ry)
         cz = math.cos(rz)
         sz = math.sin(rz)
-        # only the first two columns of R act on the planar top anchors (p_z = 0)
+        # the first two columns of R act on planar top anchors (p_z = 0; third one below)
         r00 = cz * cy
         r01 = cz * sy * sx - sz * cx
         r10 = sz * cy
@@ -245,6 +248,16 @@ class ScalarIK:
         tz = z + self._h
         sqrt = math.sqrt
         out = []
+        if self._pz is not None:
+            r02 = cz * sy * cx + sz * sx
+            r12 = sz * sy * cx - cz * sx
+            r22 = cy * cx
+            for (px, py), pz, (bx, by, bz) in zip(self._p, self._pz, self._b, strict=True):
+                lx = x + r00 * px + r01 * py + r02 * pz - bx
+                ly = y + r10 * px + r11 * py + r12 * pz - by
+                lz = tz + r20 * px + r21 * py + r22 * pz - bz
+                out.append(sqrt(lx * lx + ly * ly + lz * lz))
+            return tuple(out)  # type: ignore[return-value]
         for (px, py), (bx, by, bz) in zip(self._p, self._b, strict=True):
             lx = x + r00 * px + r01 * py - bx
             ly = y + r10 * px + r11 * py - by

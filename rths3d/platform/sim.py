@@ -180,13 +180,14 @@ def leg_setpoints(poses, b, p, hh, home, off, ffg, Lprev, L, ctrl, a0, half, vdt
         ok = True
         for i in range(6):
             px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-            lx = x + r00 * px + r01 * py - b[i, 0]
-            ly = y + r10 * px + r11 * py - b[i, 1]
-            lz = tz + r20 * px + r21 * py - b[i, 2]
-            if pz != 0.0:
-                lx += r02 * pz
-                ly += r12 * pz
-                lz += r22 * pz
+            if pz != 0.0:  # top anchors off the plate plane (a calibrated geometry)
+                lx = x + r00 * px + r01 * py + r02 * pz - b[i, 0]
+                ly = y + r10 * px + r11 * py + r12 * pz - b[i, 1]
+                lz = tz + r20 * px + r21 * py + r22 * pz - b[i, 2]
+            else:
+                lx = x + r00 * px + r01 * py - b[i, 0]
+                ly = y + r10 * px + r11 * py - b[i, 1]
+                lz = tz + r20 * px + r21 * py - b[i, 2]
             Li = math.sqrt(lx * lx + ly * ly + lz * lz)
             L[k, i] = Li
             # `not <=`: a NaN command stops like an overrun
