@@ -9,6 +9,8 @@ Prints ONE JSON line:
   batch_rtf_lti      K_lti tests stepped together on the LTI path (aggregate)
   bare_rtf_stewart, batch_bare_rtf_stewart   the machine's limits measured in the same run:
                      bare mj_step of the model, and raw mujoco.batch stepping of K_stewart
+  first_runs_s       wall time of the first (tiny) single and batch runs of both paths in the
+                     process: loading the compiled kernels, excluded from the figures above
 Medians over repeats; ratios measured side by side in one run. ``--quick``: 2 s tests, one
 repeat (figures noisier).
 """
@@ -41,6 +43,14 @@ def main() -> None:
     reps = 1 if args.quick else 3
     sc = load_scene(REPO / "scenes" / "paper_contact.toml", [f"duration={duration}"])
     med = statistics.median
+    # the first run of each path in a process loads its compiled kernels (numba's on-disk
+    # cache; compiled on the machine's first run): measured apart, then excluded
+    warm = load_scene(REPO / "scenes" / "paper_contact.toml", ["duration=0.1"])
+    t0 = time.perf_counter()
+    for kind in ("lti", "stewart"):
+        run(warm, kind, reference=False)
+        run_batch(warm, [{"numerical.k": 1e3}, {"numerical.k": 2e3}], kind, reference=False)
+    first_runs = time.perf_counter() - t0
 
     rtf_st, ratio, rtf_lti, bare_rtf = [], [], [], []
     for _ in range(reps):
@@ -95,6 +105,7 @@ def main() -> None:
         "bare_rtf_stewart": round(med(bare_rtf), 2),
         "batch_bare_rtf_stewart": round(b_bare, 1),
         "batch_rtf_lti": round(b_lti, 1),
+        "first_runs_s": round(first_runs, 2),
         "k_stewart": args.k_stewart, "k_lti": args.k_lti, "duration_s": duration,
         "quick": args.quick,
     }))

@@ -242,9 +242,10 @@ class _Group:
                 if not mon.any_active:
                     return n - n0
             tr.step(num.z, num.zdot)
-            for k in np.flatnonzero(tr.stopped & mon.active):
-                mon.stop(int(k), tr.reasons[k], n)
-                num.halt(int(k))
+            if tr.stopped.any():
+                for k in np.flatnonzero(tr.stopped & mon.active):
+                    mon.stop(int(k), tr.reasons[k], n)
+                    num.halt(int(k))
             f = self._f = tr.f_meas
             record_row(self.data, n + 1, num.z, tr.z_meas, f, num.x, self.c_zc, self.c_zm,
                        self.c_f, self.c_x)

@@ -135,6 +135,22 @@ def check_growth(f, win, fac, nwin, floor, pk, prev, base, cnt, active, code, do
     return stops
 
 
+@njit
+def check_measured(f, lim_f, win, fac, nwin, floor, pk, prev, base, cnt, active, code, dof,
+                   value, row, n):
+    """:func:`check_force`, then :func:`check_growth`, for step n; returns the new stops."""
+    stops = 0
+    for k in range(f.shape[0]):
+        for j in range(f.shape[1]):
+            if not abs(f[k, j]) <= lim_f[k, j]:
+                stops += check_force(f, lim_f, active, code, dof, value, row, n)
+                break
+        if stops:
+            break
+    return stops + check_growth(f, win, fac, nwin, floor, pk, prev, base, cnt, active, code,
+                                dof, value, row, n)
+
+
 class SafetyMonitor:
     """Each test's limits and stop state (see the module docstring).
 
@@ -163,9 +179,6 @@ class SafetyMonitor:
         self.g_fac = np.array([x.growth for x in saf], dtype=float)
         self.g_n = np.array([int(x.growth_windows) for x in saf], dtype=np.int64)
         self.g_floor = 0.02 * self.lim_f
-        # cheapest whole-batch pre-checks of the Python loop (NaN fails `<=`)
-        self._zmin, self._vmin = float(self.lim_z.min()), float(self.lim_v.min())
-        self._xmin, self._fmin = float(self.lim_x.min()), float(self.lim_f.min())
         self.active = np.ones(K, dtype=np.bool_)
         self.code = np.zeros(K, dtype=np.int64)
         self.dof = np.zeros(K, dtype=np.int64)
@@ -176,7 +189,6 @@ class SafetyMonitor:
         self.g_prev = np.full((K, nd), np.inf)
         self.g_base = np.zeros((K, nd))
         self.g_cnt = np.zeros((K, nd), dtype=np.int64)
-        self._abs = np.zeros((K, nd))
 
     def reset(self) -> None:
         self.active[:] = True
@@ -195,22 +207,14 @@ class SafetyMonitor:
     # ------------------------------------------------------------------ Python loop
     def command(self, n: int, z: np.ndarray, zd: np.ndarray, x: np.ndarray) -> int:
         """Check the command of step n (see :func:`check_command`); returns the new stops."""
-        if (np.abs(z).max() <= self._zmin and np.abs(zd).max() <= self._vmin
-                and np.abs(x).max() <= self._xmin):
-            return 0
         return check_command(z, zd, x, self.lim_z, self.lim_v, self.lim_x, self.active,
                              self.code, self.dof, self.value, self.row, n)
 
     def force(self, n: int, f: np.ndarray) -> int:
         """Check the measured force of step n: FTS range, then growth."""
-        new = 0
-        if not np.abs(f, out=self._abs).max() <= self._fmin:
-            new += check_force(f, self.lim_f, self.active, self.code, self.dof, self.value,
-                               self.row, n)
-        new += check_growth(f, self.g_win, self.g_fac, self.g_n, self.g_floor, self.g_pk,
-                            self.g_prev, self.g_base, self.g_cnt, self.active, self.code,
-                            self.dof, self.value, self.row, n)
-        return new
+        return check_measured(f, self.lim_f, self.g_win, self.g_fac, self.g_n, self.g_floor,
+                              self.g_pk, self.g_prev, self.g_base, self.g_cnt, self.active,
+                              self.code, self.dof, self.value, self.row, n)
 
     def stop(self, k: int, reason: str, row: int, code: int = EXTERNAL) -> None:
         """Stop test k from outside the checks (the transfer system, the user)."""

@@ -19,7 +19,7 @@ import numpy as np
 
 from .effects.blocks import njit, run_chain
 from .numerical._kernels import linear_step
-from .safety import check_command, check_force, check_growth
+from .safety import check_command, check_measured
 
 __all__ = ["linear_step", "noise_buffer", "record_row", "run_steps", "transfer_step"]
 
@@ -86,10 +86,8 @@ def run_steps(n0, n1, num, tr, io, mon, rec, noise_act, noise_sens):
         transfer_step(tr[0], tr[1], tr[2], tr[3], tr[4], tr[5], tr[6], tr[7], tr[8], tr[9],
                       tr[10], tr[11], zr, zdr, zmr, zpr, ftr, fmr, ur, wa, ws)
         record_row(data, n + 1, z, zm, fmeas, x, c_zc, c_zm, c_f, c_x)
-        stops = check_force(fmeas, lim_f, active, code, dof, value, row, n)
-        stops += check_growth(fmeas, g_win, g_fac, g_n, g_floor, g_pk, g_prev, g_base, g_cnt,
-                              active, code, dof, value, row, n)
-        if stops:
+        if check_measured(fmeas, lim_f, g_win, g_fac, g_n, g_floor, g_pk, g_prev, g_base, g_cnt,
+                          active, code, dof, value, row, n):
             for k in range(K):
                 if not active[k] and row[k] >= n:
                     P[k, :, :] = 0.0

@@ -228,6 +228,28 @@ def world_wrench(R, sens_f, sens_t, pre, rows, out):
                          + R[k, 3 * a + 2] * src[k, 2]) - pre[k, r]
 
 
+@njit
+def read_interface(q, hh, idx, R, sens_f, sens_t, pre, z, f):
+    """Achieved interface DOFs ``idx`` (of x y z rx ry rz) from the plate qpos rows (K, 7)
+    and the measured interface wrench rows ``idx`` (world axes, preload removed)."""
+    for k in range(q.shape[0]):
+        w, x, y, zq = q[k, 3], q[k, 4], q[k, 5], q[k, 6]
+        for c in range(idx.shape[0]):
+            i = idx[c]
+            if i < 3:
+                z[k, c] = q[k, i] - (hh if i == 2 else 0.0)
+            elif i == 3:
+                z[k, c] = math.atan2(2 * (y * zq + w * x), 1 - 2 * (x * x + y * y))
+            elif i == 4:
+                z[k, c] = math.asin(min(max(2 * (w * y - x * zq), -1.0), 1.0))
+            else:
+                z[k, c] = math.atan2(2 * (x * y + w * zq), 1 - 2 * (y * y + zq * zq))
+            a = i % 3
+            src = sens_f if i < 3 else sens_t
+            f[k, c] = (R[k, 3 * a] * src[k, 0] + R[k, 3 * a + 1] * src[k, 1]
+                       + R[k, 3 * a + 2] * src[k, 2]) - pre[k, i]
+
+
 class _OneSim:
     """The part of ``mujoco.batch.Batch`` the platform uses, for one ``MjData``."""
 
@@ -259,13 +281,14 @@ class _OneSim:
     def step(self, nstep: int = 1, ids=None) -> None:
         mujoco.mj_step(self.m, self.d, nstep)
 
-    def failed(self, expected: float) -> np.ndarray:
+    def failed(self, expected: float) -> np.ndarray | None:
         """Which simulations diverged (MuJoCo's bad-acceleration warning since the last
-        call; it then resets the state silently)."""
+        call; it then resets the state silently); None when none did."""
         n = self._warn.number
-        bad = n != self._seen
+        if n == self._seen:
+            return None
         self._seen = n
-        return np.array([bad])
+        return np.array([True])
 
     def error(self, k: int) -> str:
         return f"MuJoCo bad acceleration at DOF {self._warn.lastinfo}, state was reset"
@@ -284,10 +307,12 @@ class _ManySims:
     def set_time(self, t: float) -> None:
         self._time[:] = t
 
-    def failed(self, expected: float) -> np.ndarray:
+    def failed(self, expected: float) -> np.ndarray | None:
         """MuJoCo resets a simulation whose acceleration blows up and carries on from time 0;
         the batch does not expose the warning counters, so a simulation time behind the
-        expected one (or a status) is the signature of that reset."""
+        expected one (or a status) is the signature of that reset. None when none did."""
+        if self._time.min() >= expected and not self.batch.status.any():
+            return None
         return (self._time < expected) | (self.batch.status != 0)
 
 class PlatformBatch:
@@ -389,6 +414,11 @@ class PlatformBatch:
         self._fts_torque = self._sensor[:, ta:ta + 3]
         self._fts_R = self._xmat[:, self.ids.fts_site]
         self._L = np.zeros((nsim, 6))
+        self.poses = np.zeros((nsim, 6))
+        """The poses (K, 6) commanded by the last step (m, rad, relative to home)."""
+        self._fresh = False
+        self._nsub = int(config.substeps)
+        self._any_stopped = False
         self._run = np.ones(nsim, dtype=np.bool_)
         self._all = np.arange(nsim)
         self._wrows: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
@@ -453,7 +483,9 @@ class PlatformBatch:
         self._off = offs
         self._pre = pre
         self._Lprev = np.tile(self._home, (self.nsim, 1))
+        self.poses[:] = 0.0
         self.stopped[:] = False
+        self._any_stopped = False
         self._run[:] = True
         self.reasons = [""] * self.nsim
         self.stops = [None] * self.nsim
@@ -466,6 +498,13 @@ class PlatformBatch:
             self.batch.forward()
         self.k = 0
         self._check_status(settling=True)
+        self._fresh = not self._any_stopped
+
+    def ensure_reset(self) -> None:
+        """:meth:`reset`, unless the platform is still as its last reset left it (not
+        stepped, nothing stopped): the same state without settling twice."""
+        if not (self._fresh and self.k == 0):
+            self.reset()
 
     @property
     def t(self) -> float:
@@ -474,6 +513,7 @@ class PlatformBatch:
 
     def _freeze(self, k: int, stop: SafetyStop) -> None:
         if not self.stopped[k]:
+            self._any_stopped = True
             self.stops[k] = stop
             self.stopped[k] = True
             self._run[k] = False
@@ -483,7 +523,10 @@ class PlatformBatch:
     def _check_status(self, settling: bool = False) -> None:
         """Flag tests whose simulation failed or diverged (MuJoCo resets such a state)."""
         expected = self._t0 + self.k * self.config.dt - 0.5 * self.config.timestep
-        bad = self.batch.failed(expected) & ~self.stopped
+        failed = self.batch.failed(expected)
+        if failed is None:
+            return
+        bad = failed & ~self.stopped
         if bad.any():
             for k in np.flatnonzero(bad):
                 msg = self.batch.error(int(k)).strip()
@@ -502,16 +545,21 @@ class PlatformBatch:
         if poses.shape != (self.nsim, 6):
             raise ConfigError("poses", f"array of shape {poses.shape}",
                               f"need ({self.nsim}, 6)")
-        bad = leg_setpoints(np.ascontiguousarray(poses), self._b, self._p, self._hh,
-                            self._home, self._off, self._ffg, self._Lprev, self._L, self._ctrl,
-                            self._a0, self._half, self._vdt, self._run)
-        if bad:
+        self.poses[:] = poses
+        self._advance()
+
+    def _advance(self) -> None:
+        """One interface step from the commanded poses in :attr:`poses` (the hot path)."""
+        self._fresh = False
+        if leg_setpoints(self.poses, self._b, self._p, self._hh, self._home, self._off,
+                         self._ffg, self._Lprev, self._L, self._ctrl, self._a0, self._half,
+                         self._vdt, self._run):
             self._command_limits(self._L - self._home, self._L - self._Lprev)
-        if self._run.all():
-            self.batch.step(nstep=self.config.substeps)
+        if not self._any_stopped:
+            self.batch.step(nstep=self._nsub)
         elif self._run.any():
             # stopped tests hold their last set-point and are not stepped any more
-            self.batch.step(ids=self._all[self._run], nstep=self.config.substeps)
+            self.batch.step(nstep=self._nsub, ids=self._all[self._run])
         self.k += 1
         self._check_status()
         if measured_over(self._legs_q, self._legs_v, self._legs_f, self._half, self._vmax,
@@ -584,6 +632,12 @@ class PlatformBatch:
     def interface_wrench(self) -> np.ndarray:
         """Restoring wrench ``f_meas`` (K, 6): world axes, static preload removed (N, N·m)."""
         return self.interface_force(range(6)).copy()
+
+    def read(self, idx: np.ndarray, z: np.ndarray, f: np.ndarray) -> None:
+        """Achieved interface DOFs ``idx`` into ``z`` and their measured interface wrench
+        into ``f`` ((K, len(idx)) each), in one compiled call."""
+        read_interface(self.plate_qpos, self._hh, idx, self._fts_R, self._fts_force,
+                       self._fts_torque, self._pre, z, f)
 
     def interface_force(self, rows: Sequence[int]) -> np.ndarray:
         """Rows ``rows`` (0–2 force, 3–5 torque) of :attr:`interface_wrench`, (K, len(rows)),

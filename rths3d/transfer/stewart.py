@@ -8,7 +8,6 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..config import Scene, TransferConfig
-from ..effects.blocks import njit
 from ..experiment import make_part, part_class
 from ..platform.model import ActuatorConfig, PlatformConfig, predicted_delay
 from ..platform.sim import PlatformBatch, plate_pose
@@ -26,23 +25,6 @@ def platform_config(scene: Scene, tr: TransferConfig | None = None) -> PlatformC
     return PlatformConfig(actuator=ActuatorConfig(kp=t.kp, kv=t.kv, timeconst=t.timeconst,
                                                   delay=t.delay, velocity_ff=t.velocity_ff),
                           dt=scene.dt, substeps=t.substeps)
-
-
-@njit
-def _interface_pose(q, hh, idx, out):
-    """Achieved interface DOFs ``idx`` (of x y z rx ry rz) from plate qpos rows (K, 7)."""
-    for k in range(q.shape[0]):
-        w, x, y, z = q[k, 3], q[k, 4], q[k, 5], q[k, 6]
-        for c in range(idx.shape[0]):
-            i = idx[c]
-            if i < 3:
-                out[k, c] = q[k, i] - (hh if i == 2 else 0.0)
-            elif i == 3:
-                out[k, c] = np.arctan2(2 * (y * z + w * x), 1 - 2 * (x * x + y * y))
-            elif i == 4:
-                out[k, c] = np.arcsin(min(max(2 * (w * y - x * z), -1.0), 1.0))
-            else:
-                out[k, c] = np.arctan2(2 * (x * y + w * z), 1 - 2 * (y * y + z * z))
 
 
 @register_transfer
@@ -77,7 +59,8 @@ class StewartTransfer:
         self.compensator = compensator_class(base.transfer.compensation).from_scenes(
             self.scenes, self.n_if)
         self.sensor = sensor_chain(self.scenes, self.n_if)
-        self.pose_cmd = np.zeros((K, 6))
+        self.pose_cmd = self.sim.poses
+        self._f = np.zeros((K, self.n_if))
         self.home_height = float(g.home_height)
         self.plate_qpos = self.sim.plate_qpos
         """Live (K, 7) view of the plate's measured free-joint qpos (m, quaternion wxyz)."""
@@ -126,7 +109,7 @@ class StewartTransfer:
         return plate_pose(self.plate_qpos, self.home_height)
 
     def reset(self) -> None:
-        self.sim.reset()
+        self.sim.ensure_reset()
         self.compensator.reset()
         self.sensor.reset()
         self.pose_cmd[:] = 0.0
@@ -137,12 +120,15 @@ class StewartTransfer:
 
     def step(self, z: np.ndarray, zdot: np.ndarray) -> None:
         u = self.compensator(z, zdot, self.z_meas)
-        self.pose_cmd[:, self.idx] = u
         sim = self.sim
-        sim.step(self.pose_cmd)
-        _interface_pose(self.plate_qpos, self.home_height, self.idx, self.z_meas)
-        self.f_meas[:] = self.sensor(sim.interface_force(self.idx))
-        if sim.stopped.any():
+        sim.poses[:, self.idx] = u
+        sim._advance()
+        sim.read(self.idx, self.z_meas, self._f)
+        if self.sensor.empty:
+            self.f_meas[:] = self._f
+        else:
+            self.f_meas[:] = self.sensor(self._f)
+        if sim._any_stopped:
             self.stopped[:] = sim.stopped
             self.reasons = list(sim.reasons)
 
