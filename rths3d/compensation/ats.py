@@ -144,16 +144,15 @@ def _solve3(M, r):
 
 
 @njit(cache=True, nogil=True)
-def _ats_step(z, zd, zm, u, a, est, st, blocks, zi_u, zi_x, sos, watch, hp, stopped,
+def _ats_step(z, zd, zm, u, a, est, st, blocks, zi_u, zi_x, sos, watch, hp, wp, stopped,
               code, ev_val, ev_lim, prm, lo, hi, step_max):
     """One call for all (K, n) channels. ``prm`` = [dt, M (samples per block), B (blocks),
-    threshold, ridge, bound_time, interval (s), osc alpha, osc ratio, osc floor]. Returns
+    threshold, ridge, bound_time, interval (s)]; ``wp``: the watch's parameters. Returns
     True when a new safety event was raised."""
     dt = prm[0]
     M = int(prm[1])
     B = int(prm[2])
     thr, ridge, bound_time, interval = prm[3], prm[4], prm[5], prm[6]
-    alpha, ratio, floor = prm[7], prm[8], prm[9]
     K, n = z.shape
     inv2 = 0.5 / dt
     inv_sq = 1.0 / (dt * dt)
@@ -251,7 +250,7 @@ def _ats_step(z, zd, zm, u, a, est, st, blocks, zi_u, zi_x, sos, watch, hp, stop
             s[_ZD_PREV] = zd[k, j]
             s[_U_PREV] = uk
             u[k, j] = uk
-            osc, ru, lim = watch_step(hp, watch[k, j], uk, z[k, j], alpha, ratio, floor)
+            osc, ru, lim = watch_step(hp, watch[k, j], uk, z[k, j], wp)
             if osc and code[k, j] == 0:
                 code[k, j] = 4
                 ev_val[k, j] = ru
@@ -293,10 +292,8 @@ class ATSCompensator(BaseCompensator):
         self.step_max = np.asarray(c.rates, dtype=float) * interval
         self.sos = butter_sos(c.filter_order, c.filter_hz, dt)
         self.hp = butter_sos(2, c.osc_corner, dt, "highpass")
-        alpha = -math.expm1(-dt / c.osc_time)
-        self.prm = np.array([dt, self.M, self.B, c.threshold, c.ridge, c.bound_time, interval,
-                             alpha, c.osc_ratio if math.isfinite(c.osc_ratio) else 1e300,
-                             c.osc_floor])
+        self.wp = c.watch_params(dt)
+        self.prm = np.array([dt, self.M, self.B, c.threshold, c.ridge, c.bound_time, interval])
         S = self.sos.shape[0]
         self.a = np.zeros((K, n, 3))
         self.est = np.zeros((K, n, 3))
@@ -326,7 +323,7 @@ class ATSCompensator(BaseCompensator):
 
     def command(self, z: np.ndarray, zdot: np.ndarray, z_meas: np.ndarray) -> np.ndarray:
         if _ats_step(z, zdot, z_meas, self.u, self.a, self.est, self.st, self.blocks,
-                     self.zi_u, self.zi_x, self.sos, self.watch, self.hp, self.stopped,
+                     self.zi_u, self.zi_x, self.sos, self.watch, self.hp, self.wp, self.stopped,
                      self.code, self.ev_val, self.ev_lim, self.prm, self.lo, self.hi,
                      self.step_max):
             self._events(self.code, self.ev_val, self.ev_lim, LABELS, UNITS)

@@ -220,19 +220,21 @@ class WatchConfig(CompensatorConfig):
 
     Attributes
     ----------
-    osc_ratio, osc_floor, osc_corner, osc_time: the command oscillates when the RMS of its
-      part above ``osc_corner`` (Hz; 2nd-order Butterworth high-pass), averaged over
-      ``osc_time`` (s, exponential window), exceeds ``osc_ratio`` × the RMS of the desired
-      motion (about its running mean, same window) plus ``osc_floor`` (channel units: m or
-      rad). A tracking command carries little above the corner (a 5 Hz motion: 6 % of its
-      RMS); a compensator or loop going unstable puts its growing oscillation there.
-      ``osc_ratio = inf`` turns the watch off.
+    osc_ratio, osc_floor, osc_corner, osc_time, osc_hold: the command oscillates when the RMS
+      of its part above ``osc_corner`` (Hz; 2nd-order Butterworth high-pass), averaged over
+      ``osc_time`` (s, exponential window), has exceeded ``osc_ratio`` × the RMS of the
+      desired motion (about its running mean, same window) plus ``osc_floor`` (channel
+      units: m or rad) for longer than ``osc_hold`` (s). A tracking command carries little
+      above the corner (a 5 Hz motion: 6 % of its RMS) and a start transient dies out within
+      the hold; a compensator or loop going unstable keeps its growing oscillation there.
+      Defaults 0.5, 0.1 mm, 20 Hz, 0.05 s, 0.25 s; ``osc_ratio = inf`` turns the watch off.
     """
 
     osc_ratio: float = 0.5
     osc_floor: float = 1e-4
     osc_corner: float = 20.0
-    osc_time: float = 0.1
+    osc_time: float = 0.05
+    osc_hold: float = 0.25
 
     def check_watch(self, name: str, dt: float) -> None:
         check(f"{name}.osc_ratio", self.osc_ratio, self.osc_ratio > 0.0,
@@ -243,6 +245,13 @@ class WatchConfig(CompensatorConfig):
               0.0 < self.osc_corner < 0.5 / dt, f"must be in (0, {0.5 / dt:g}) Hz (Nyquist)")
         check(f"{name}.osc_time", self.osc_time, self.osc_time >= dt,
               f"must be ≥ one step ({dt:g} s)")
+        check(f"{name}.osc_hold", self.osc_hold, self.osc_hold >= 0.0, "must be ≥ 0 s")
+
+    def watch_params(self, dt: float) -> np.ndarray:
+        """``[α, ratio, floor, dt, hold]`` for :func:`watch_step` (ratio inf → 1e300)."""
+        ratio = self.osc_ratio if math.isfinite(self.osc_ratio) else 1e300
+        return np.array([-math.expm1(-dt / self.osc_time), ratio, self.osc_floor, dt,
+                         self.osc_hold])
 
 
 # ---------------------------------------------------------------------------------------
@@ -264,16 +273,18 @@ def sos_step(sos: np.ndarray, zi: np.ndarray, x: float) -> float:
 
 WATCH_STATES = 6
 """Per-channel state of the oscillation watch: the high-pass section of u (2), the running
-mean of z, the mean square of z about it, the mean square of u_hp, spare."""
+mean of z, the mean square of z about it, the mean square of u_hp, the time over the limit."""
 
 
 @njit(cache=True, nogil=True)
-def watch_step(hp: np.ndarray, w: np.ndarray, u: float, z: float, alpha: float, ratio: float,
-               floor: float) -> tuple[bool, float, float]:
-    """Oscillation watch for one channel: ``hp`` (1, 6) high-pass section, ``w`` (6,) state.
-    The command oscillates when the running RMS of its high-passed part exceeds ``ratio`` ×
-    the running RMS of the desired motion about its mean, plus ``floor``. Returns
-    (oscillating, rms of u_hp, limit)."""
+def watch_step(hp: np.ndarray, w: np.ndarray, u: float, z: float, wp: np.ndarray
+               ) -> tuple[bool, float, float]:
+    """Oscillation watch for one channel: ``hp`` (1, 6) high-pass section, ``w`` (6,) state,
+    ``wp`` = [α, ratio, floor, dt, hold] (:meth:`WatchConfig.watch_params`).
+    The command oscillates when the running RMS of its high-passed part has exceeded
+    ``ratio`` × the running RMS of the desired motion about its mean, plus ``floor``, for
+    longer than ``hold`` (s). Returns (oscillating, rms of u_hp, limit)."""
+    alpha, ratio, floor, dt, hold = wp[0], wp[1], wp[2], wp[3], wp[4]
     yu = hp[0, 0] * u + w[0]
     w[0] = hp[0, 1] * u - hp[0, 4] * yu + w[1]
     w[1] = hp[0, 2] * u - hp[0, 5] * yu
@@ -283,7 +294,11 @@ def watch_step(hp: np.ndarray, w: np.ndarray, u: float, z: float, alpha: float, 
     w[4] += alpha * (yu * yu - w[4])
     ru = math.sqrt(w[4])
     lim = ratio * math.sqrt(w[3]) + floor
-    return ru > lim, ru, lim
+    if ru > lim:
+        w[5] += dt
+    else:
+        w[5] = 0.0
+    return w[5] > hold, ru, lim
 
 
 def butter_sos(order: int, cutoff: float, dt: float, kind: str = "lowpass") -> np.ndarray:

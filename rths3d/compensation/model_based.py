@@ -68,12 +68,11 @@ class ModelBasedConfig(InverseModel, WatchConfig):
 
 
 @njit(cache=True, nogil=True)
-def _feedback_step(z, zm, u, fb, state, watch, hp, stopped, code, ev_val, ev_lim, prm):
+def _feedback_step(z, zm, u, fb, state, watch, hp, wp, stopped, code, ev_val, ev_lim, prm):
     """Add the PI feedback to the feed-forward already in ``u``. ``state`` (K, n, 3): the
     last target, the filtered error, the integral. ``prm`` = [kp, ki·dt, filter α,
-    fb_limit, osc α, ratio, floor]."""
+    fb_limit]; ``wp``: the watch's parameters."""
     kp, kidt, beta, limit = prm[0], prm[1], prm[2], prm[3]
-    alpha, ratio, floor = prm[4], prm[5], prm[6]
     K, n = z.shape
     event = False
     for k in range(K):
@@ -94,7 +93,7 @@ def _feedback_step(z, zm, u, fb, state, watch, hp, stopped, code, ev_val, ev_lim
                 ev_val[k, j] = abs(c)
                 ev_lim[k, j] = limit
                 event = True
-            osc, ru, lim = watch_step(hp, watch[k, j], uk, z[k, j], alpha, ratio, floor)
+            osc, ru, lim = watch_step(hp, watch[k, j], uk, z[k, j], wp)
             if osc and code[k, j] == 0:
                 code[k, j] = 2
                 ev_val[k, j] = ru
@@ -125,9 +124,8 @@ class ModelBasedCompensator(BaseCompensator):
         self.core = InverseCore(c, K, n, dt, "model_based")
         self.hp = butter_sos(2, c.osc_corner, dt, "highpass")
         self.prm = np.array([c.kp, c.ki * dt, -math.expm1(-2 * math.pi * c.fb_hz * dt),
-                             c.fb_limit, -math.expm1(-dt / c.osc_time),
-                             c.osc_ratio if math.isfinite(c.osc_ratio) else 1e300,
-                             c.osc_floor])
+                             c.fb_limit])
+        self.wp = c.watch_params(dt)
         self.fb = np.zeros((K, n))
         self.state = np.zeros((K, n, 3))
         self.watch = np.zeros((K, n, WATCH_STATES))
@@ -148,7 +146,7 @@ class ModelBasedCompensator(BaseCompensator):
         if any_stopped:  # stopped tests keep their last command
             np.copyto(self._held, self.u)
         self.core(z, zdot, self.u)
-        if _feedback_step(z, z_meas, self.u, self.fb, self.state, self.watch, self.hp,
+        if _feedback_step(z, z_meas, self.u, self.fb, self.state, self.watch, self.hp, self.wp,
                           self.stopped, self.code, self.ev_val, self.ev_lim, self.prm):
             self._events(self.code, self.ev_val, self.ev_lim, LABELS, UNITS)
         if any_stopped:

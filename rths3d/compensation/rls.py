@@ -63,7 +63,9 @@ class RLSConfig(WatchConfig):
       0.01 in = 0.254 mm.
     filter_order, filter_hz: Butterworth low-pass on u and x_m (4th order, 20 Hz; 0: none).
     gain_bounds: allowed DC gain of the inverse Σθ (-), [0.7, 1.3].
-    lead_bounds: allowed lead time −Σθ_i·i·s·dt/Σθ (s), [0, 0.08].
+    lead_bounds: allowed lead time −Σθ_i·i·s·dt/Σθ (s), [−0.005, 0.08] (ATS's a1 range,
+      a little below 0 so that an estimate converging from the uncompensated start, lead 0,
+      may pass through it).
     bound_time: time (s) an estimate may stay outside its bounds before the test stops,
       0.25 s (the plant has left what the compensator can represent, or it drifts).
     osc_*: the command-oscillation watch (:class:`~.base.WatchConfig`).
@@ -78,8 +80,7 @@ class RLSConfig(WatchConfig):
     filter_order: int = 4
     filter_hz: float = 20.0
     gain_bounds: tuple[float, float] = (0.7, 1.3)
-    lead_bounds: tuple[float, float] = (0.0, 0.08)
-
+    lead_bounds: tuple[float, float] = (-0.005, 0.08)
     bound_time: float = 0.25
 
     def __post_init__(self) -> None:
@@ -107,18 +108,17 @@ NSTATE = 5
 
 
 @njit(cache=True, nogil=True)
-def _rls_step(z, zm, u, theta, used, P, xr, zr, st, zi_u, zi_x, sos, watch, hp, stopped,
+def _rls_step(z, zm, u, theta, used, P, xr, zr, st, zi_u, zi_x, sos, watch, hp, wp, stopped,
               code, ev_val, ev_lim, prm):
     """One call for all (K, n) channels. ``prm`` = [dt, spacing (samples), λ, p_cap (trace),
-    threshold, peak decay, gain lo, gain hi, lead lo, lead hi, bound_time, osc alpha, ratio,
-    floor]. Rings ``xr``/``zr`` (K, n, L) hold filtered x_m and z."""
+    threshold, peak decay, gain lo, gain hi, lead lo, lead hi, bound_time]; ``wp``: the
+    watch's parameters. Rings ``xr``/``zr`` (K, n, L) hold filtered x_m and z."""
     dt = prm[0]
     sp = int(prm[1])
     lam = prm[2]
     p_cap = prm[3]
     thr, decay = prm[4], prm[5]
     glo, ghi, llo, lhi, bound_time = prm[6], prm[7], prm[8], prm[9], prm[10]
-    alpha, ratio, floor = prm[11], prm[12], prm[13]
     K, n = z.shape
     N = theta.shape[2]
     L = xr.shape[2]
@@ -196,7 +196,7 @@ def _rls_step(z, zm, u, theta, used, P, xr, zr, st, zi_u, zi_x, sos, watch, hp, 
             s[_IDX] = (idx + 1) % L
             s[_U_PREV] = uk
             u[k, j] = uk
-            osc, ru, lim = watch_step(hp, watch[k, j], uk, z[k, j], alpha, ratio, floor)
+            osc, ru, lim = watch_step(hp, watch[k, j], uk, z[k, j], wp)
             if osc and code[k, j] == 0:
                 code[k, j] = 3
                 ev_val[k, j] = ru
@@ -257,9 +257,8 @@ class RLSCompensator(BaseCompensator):
         self.hp = butter_sos(2, c.osc_corner, dt, "highpass")
         self.prm = np.array([dt, self.sp, lam, c.p0 * N, c.threshold, math.exp(-dt / 1.0),
                              c.gain_bounds[0], c.gain_bounds[1], c.lead_bounds[0],
-                             c.lead_bounds[1], c.bound_time, -math.expm1(-dt / c.osc_time),
-                             c.osc_ratio if math.isfinite(c.osc_ratio) else 1e300,
-                             c.osc_floor])
+                             c.lead_bounds[1], c.bound_time])
+        self.wp = c.watch_params(dt)
         S = self.sos.shape[0]
         self.theta = np.zeros((K, n, N))
         self.used = np.zeros((K, n, N))
@@ -291,7 +290,7 @@ class RLSCompensator(BaseCompensator):
 
     def command(self, z: np.ndarray, zdot: np.ndarray, z_meas: np.ndarray) -> np.ndarray:
         if _rls_step(z, z_meas, self.u, self.theta, self.used, self.P, self.xr, self.zr,
-                     self.st, self.zi_u, self.zi_x, self.sos, self.watch, self.hp,
+                     self.st, self.zi_u, self.zi_x, self.sos, self.watch, self.hp, self.wp,
                      self.stopped, self.code, self.ev_val, self.ev_lim, self.prm):
             self._events(self.code, self.ev_val, self.ev_lim, LABELS, UNITS)
         self.calls += 1
