@@ -215,15 +215,15 @@ class InverseCompensator(BaseCompensator):
 def calibrate(u: np.ndarray, z_meas: np.ndarray, dt: float,
               config: InverseModel | None = None, band: tuple[float, float] = (0.2, 30.0),
               n_num: int = 1, n_den: int = 2, segment: float = 4.0,
-              coherence: float = 0.9) -> InverseModel:
+              coherence: float = 0.9, lines: int = 40) -> InverseModel:
     """Identify the model from a recorded test: the frequency response from the command of
     each call to the measurement of the next (Welch H1 estimate over ``segment``-second
-    windows, lines in ``band`` Hz where the coherence reaches ``coherence``: the excited
-    ones), corrected for the held step (a held command answered at
-    the end of the step leads the continuous model by dt/2), then ``num/den·exp(−sT)`` fitted
-    as ``rths3d platform identify`` fits the platform (:func:`rths3d.platform.identify.
-    fit_transfer_function`). Returns ``config`` (default :class:`InverseConfig`) with num,
-    den and delay set."""
+    windows; up to ``lines`` log-spaced lines in ``band`` Hz among those whose coherence
+    reaches ``coherence``: the excited ones), corrected for the held step (a held command
+    answered at the end of the step leads the continuous model by dt/2), then
+    ``num/den·exp(−sT)`` fitted as ``rths3d platform identify`` fits the platform
+    (:func:`rths3d.platform.identify.fit_transfer_function`). Returns ``config`` (default
+    :class:`InverseConfig`) with num, den and delay set."""
     import scipy.signal
 
     from ..platform.identify import fit_transfer_function
@@ -240,10 +240,14 @@ def calibrate(u: np.ndarray, z_meas: np.ndarray, dt: float,
     _, Pxx = scipy.signal.welch(xx, fs=1 / dt, nperseg=nper)
     with np.errstate(divide="ignore", invalid="ignore"):
         coh = np.abs(Pux) ** 2 / (Puu * Pxx)
-    sel = (f >= band[0]) & (f <= band[1]) & (coh >= coherence)
-    if np.count_nonzero(sel) < n_num + n_den + 2:
-        raise ValueError(f"only {np.count_nonzero(sel)} excited lines in {band} Hz with "
-                         f"coherence ≥ {coherence}: the record does not identify the model")
+    ok = np.flatnonzero((f >= band[0]) & (f <= band[1]) & (coh >= coherence))
+    if ok.size < n_num + n_den + 2:
+        raise ValueError(f"only {ok.size} excited lines in {band} Hz with coherence ≥ "
+                         f"{coherence}: the record does not identify the model")
+    # lines spread evenly in log frequency (as the platform's multisine): Welch's linear
+    # grid would otherwise let the upper decade outweigh the low frequencies that matter
+    want = np.geomspace(f[ok[0]], f[ok[-1]], lines)
+    sel = np.unique(ok[np.abs(np.log(f[ok])[None, :] - np.log(want)[:, None]).argmin(axis=1)])
     H = Pux[sel] / Puu[sel] * np.exp(-1j * np.pi * f[sel] * dt)
     num, den, delay, _err = fit_transfer_function(f[sel], H, n_num=n_num, n_den=n_den)
     return replace(config, num=tuple(float(v) for v in num),

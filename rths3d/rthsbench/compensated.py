@@ -281,8 +281,9 @@ def run_compensated(cfg: BenchmarkConfig | None = None, compensator: str | Any =
         elif stop_at[i] >= 0:
             stop = SafetyStop("actuator force |F_act|", abs(FA[n - 1, i]), limit,
                               float(t[n - 1]), i, "N")
-        res = _finish(replace(cfg, plant=p), p, t, ag, XM[:, i], XN[:, i, :], FA[:, i],
-                      YG[:, i], FM[:, i], stop, n, x_ref)
+        # contiguous copies: a trial's result does not keep the (N, K) logs alive
+        res = _finish(replace(cfg, plant=p), p, t, ag, XM[:n, i].copy(), XN[:n, i, :].copy(),
+                      FA[:n, i].copy(), YG[:n, i].copy(), FM[:n, i].copy(), stop, n, x_ref)
         res.compensator = compensator
         res.y_p = YP[:n, i].copy()
         res.coefficients = {name: float(v[i, 0]) for name, v in coefs.items()}

@@ -108,6 +108,8 @@ class BenchmarkResult:
         for i in range(3):
             cols[f"x_num.{i}"] = self.x_num[:, i]
             cols[f"x_ref.{i}"] = self.x_ref[:, i]
+        if self.y_p is not None:
+            cols["y_p"] = self.y_p
         m = case_matrices(c.case, c.plant.m_e, c.plant.c_e, c.plant.k_e)
         meta: dict[str, Any] = {
             "scene": f"rthsbench_case{c.case}_{c.excitation}", "transfer": "lti",
@@ -119,6 +121,8 @@ class BenchmarkResult:
             "experiment": {"m_exp": c.plant.m_e, "k_exp": [[c.plant.k_e]],
                            "c_exp": c.plant.c_e},
             "j_criteria": self.j,
+            "compensator": self.compensator or "benchmark phase lead",
+            "compensator_coefficients": dict(self.coefficients),
             # fastest eigenfrequency of the numerical substructure (rad/s), for τ-ratios
             "omega_num_max": float(np.sqrt(np.max(np.linalg.eigvals(
                 np.linalg.solve(m.Mn, m.Kn)).real))),
