@@ -475,3 +475,38 @@ def test_cli_compensator_json_table_and_errors(capsys, rths_benchmark_dir):
         assert ex.value.code == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and err[0].startswith(f"error: {field}"), err
+
+
+def test_example_prints_usage_and_refuses_a_bad_plot_path(tmp_path):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[1] / "examples" / "72_compensators.py"
+    out = subprocess.run([sys.executable, str(script), "--help"], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.startswith("usage:")
+    out = subprocess.run([sys.executable, str(script), "--plot", "x.pdf"], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=120)
+    err = out.stderr.strip().splitlines()
+    assert out.returncode == 2 and err == ["error: --plot: 'x.pdf' (must end in .png)"]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_compensated_result_becomes_a_record_with_its_compensator(elcentro, calibration, tmp_path):
+    from rths3d.record import Record
+    from rths3d.rthsbench import BenchmarkConfig
+    from rths3d.rthsbench.compensated import calibrated_config, run_compensated
+
+    conf = calibrated_config("rls", record=calibration)
+    res = run_compensated(BenchmarkConfig(case=1, t_end=8.0), "rls", conf, gm=elcentro,
+                          history_every=256)[0]
+    rec = res.to_record()
+    path = rec.save(tmp_path / "rls.parquet")
+    back = Record.load(path)
+    assert back.meta["compensator"] == "rls"
+    assert set(back.meta["compensator_coefficients"]) == {"theta0", "theta1", "theta2",
+                                                          "theta3", "gain", "lead"}
+    assert np.array_equal(back.columns["y_p"], res.y_p)
+    assert res.history["t"][1] == pytest.approx(256 / 4096)
+    assert res.history["gain"].shape == res.history["t"].shape
