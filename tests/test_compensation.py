@@ -458,12 +458,16 @@ def test_cli_compensator_json_table_and_errors(capsys, rths_benchmark_dir):
     from rths3d.cli import main
 
     with pytest.raises(SystemExit) as ex:
-        main(["benchmark", "rths", "--case", "3", "--compensator", "polynomial", "--json"])
+        main(["benchmark", "rths", "--case", "3", "--compensator", "polynomial", "--trials",
+              "2", "--json"])
     assert ex.value.code == 0
     out = json.loads(capsys.readouterr().out)
     entry = out["cases"]["3"]
     comp = entry["compensators"]["polynomial"]
     assert comp["status"] == "ok" and comp["J1"] <= 1.0 and comp["J2"] < entry["J2"] / 2
+    trials = comp["trials"]
+    assert trials["n"] == trials["ok"] == 2 and trials["J2_ratio_median"] < 0.5
+    assert trials["median"]["J1"] <= 1.0 and 4.0 <= entry["trials"]["median"]["J1"] <= 5.0
     assert 0.009 < out["compensators"]["polynomial"]["tau"] < 0.0115  # calibrated τ_c
     assert entry["published"]["J2"] == 9.1
     for argv, field in ((["--compensator", "warp"], "--compensator"),

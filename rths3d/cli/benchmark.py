@@ -27,8 +27,9 @@ def rths(
     case: int = typer.Option(0, "--case", help="Partitioning case 1–4 (0: all four)."),
     excitation: str = typer.Option(None, "--excitation",
                                    help="Ground motion: ElCentro (default), Kobe or Morgan."),
-    trials: int = typer.Option(0, "--trials",
-                               help="Perturbed-plant trials per case (paper: ≥ 20)."),
+    trials: int = typer.Option(None, "--trials",
+                               help="Perturbed-plant trials per case (paper: ≥ 20; default 0, "
+                                    "or 20 with --compensator)."),
     noise: bool = typer.Option(None, "--noise/--no-noise", help="Sensor noise (default on)."),
     force_delay: bool = typer.Option(None, "--force-delay/--no-force-delay",
                                      help="One-sample delay on the measured force (default on)."),
@@ -75,6 +76,8 @@ def rths(
     if case not in (0, 1, 2, 3, 4):
         raise ConfigError("--case", case, "must be 1, 2, 3 or 4 (0 for all)")
     comp_names, comp_params = _compensator_args(compensator, comp_set)
+    if trials is None:
+        trials = 20 if compensator else 0
     if trials < 0:
         raise ConfigError("--trials", trials, "must be ≥ 0")
     if plot:
