@@ -27,8 +27,9 @@ def rths(
     case: int = typer.Option(0, "--case", help="Partitioning case 1–4 (0: all four)."),
     excitation: str = typer.Option(None, "--excitation",
                                    help="Ground motion: ElCentro (default), Kobe or Morgan."),
-    trials: int = typer.Option(0, "--trials",
-                               help="Perturbed-plant trials per case (paper: ≥ 20)."),
+    trials: int = typer.Option(None, "--trials",
+                               help="Perturbed-plant trials per case (paper: ≥ 20; default 0, "
+                                    "or 20 with --compensator)."),
     noise: bool = typer.Option(None, "--noise/--no-noise", help="Sensor noise (default on)."),
     force_delay: bool = typer.Option(None, "--force-delay/--no-force-delay",
                                      help="One-sample delay on the measured force (default on)."),
@@ -41,13 +42,28 @@ def rths(
     data: str = typer.Option("", "--data", help="Benchmark folder holding data/ (optional)."),
     plot: str = typer.Option("", "--plot", help="Save a PNG of the first case's time history "
                              "(and `<name>`_trials.png of the trial spread with --trials)."),
+    compensator: str = typer.Option(
+        "", "--compensator",
+        help="Replace the controller's phase lead (its outer compensation; the PI loop stays) "
+             "by this compensator, or 'all' for every one: none, velocity, polynomial, lead, "
+             "ats, inverse, rls, model_based."),
+    comp_set: list[str] = typer.Option(
+        [], "--comp-set", help="Compensator parameter key=value (repeatable), e.g. "
+        "a1_bounds=[0,0.009]; with --compensator all: name.key=value."),
+    calibrate: bool = typer.Option(
+        True, "--calibrate/--no-calibrate",
+        help="Calibrate the compensator offline on a predefined displacement test of the "
+             "nominal plant first (initial coefficients, identified model, τ_c)."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
     """Run the RTHS benchmark and print J1–J9 beside the published Table 3.
 
     J1 is the tracking delay in ms, J2–J9 normalised errors in %.
-    A case whose actuator force reaches 8900 N stops safely (reported with the reason).
-    Options given on the command line override the scene file.
+    A case whose actuator force reaches 8900 N stops safely (reported with the reason); so
+    does a run whose adaptive compensator drifts out of its bounds.
+    Options given on the command line override the scene file. With --compensator, each case
+    also runs with the compensator in place of the phase lead (same plants, same noise) and
+    its J1–J9 are printed beside the benchmark controller's.
     """
     from dataclasses import replace
 
@@ -59,6 +75,9 @@ def rths(
 
     if case not in (0, 1, 2, 3, 4):
         raise ConfigError("--case", case, "must be 1, 2, 3 or 4 (0 for all)")
+    comp_names, comp_params = _compensator_args(compensator, comp_set)
+    if trials is None:
+        trials = 20 if compensator else 0
     if trials < 0:
         raise ConfigError("--trials", trials, "must be ≥ 0")
     if plot:
@@ -92,6 +111,25 @@ def rths(
     total = len(cases) * (1 + trials)
     first = None
     trial_rows: dict[int, list] = {}
+    comp_configs: dict[str, Any] = {}
+    bench_trials: dict[int, list] = {}
+    comp_first = None
+    if comp_names:
+        from ..rthsbench.compensated import calibrated_config, calibration_record
+
+        record = calibration_record(replace(base, case=1)) if calibrate else None
+        for name in comp_names:
+            if calibrate:
+                comp_configs[name] = calibrated_config(name, base, comp_params.get(name),
+                                                       record=record)
+            else:
+                from ..compensation import config_from_dict
+
+                comp_configs[name] = config_from_dict(name, comp_params.get(name),
+                                                      "--comp-set")
+        out["compensators"] = {n: _config_dict(c) for n, c in comp_configs.items()}
+        out["calibrated"] = calibrate
+        total += len(cases) * len(comp_names)
     with Progress(transient=True, disable=as_json or not sys.stderr.isatty()) as prog:
         task = prog.add_task("benchmark", total=total)
         for c in cases:
@@ -108,6 +146,7 @@ def rths(
             if trials:
                 rs = run_trials(cfg, n_trials=trials, seed=seed, gm=gm,
                                 progress=lambda _i: prog.advance(task))
+                bench_trials[c] = rs
                 ok = [r for r in rs if r.status == "ok"]
                 trial_rows[c] = [r.table_row() for r in ok]
                 J = np.array([[r.table_row()[k] for k in J_KEYS] for r in ok]) if ok else None
@@ -122,16 +161,38 @@ def rths(
                         entry["trials"][stat] = {k: round(float(v), 3)
                                                  for k, v in zip(J_KEYS, fn(J, axis=0),
                                                                  strict=True)}
+                    entry["trials"]["median"] = _median_row(ok)
+            if comp_names:
+                from ..rthsbench.compensated import run_compensated
+
+                entry["compensators"] = {}
+                for name in comp_names:
+                    rs = run_compensated(cfg, name, comp_configs[name], n_trials=trials,
+                                         seed=seed, gm=gm, history_every=64 if plot else 0)
+                    comp_first = comp_first or rs[0]
+                    entry["compensators"][name] = _compensated_entry(rs, bench_trials.get(c))
+                    prog.advance(task)
             out["cases"][str(c)] = entry
     if plot:
-        from ..rthsbench.plots import plot_result, plot_trials
+        from ..rthsbench.plots import plot_compensator, plot_result, plot_trials
 
-        out["plot"] = str(plot_result(first, plot_path))
+        if comp_first is not None and len(comp_names) == 1:
+            out["plot"] = str(plot_result(comp_first, plot_path))
+            coef_path = plot_path.with_name(plot_path.stem + "_compensator" + plot_path.suffix)
+            out["plot_compensator"] = str(plot_compensator(comp_first, first, coef_path))
+        else:
+            out["plot"] = str(plot_result(first, plot_path))
         if trial_rows:
             out["plot_trials"] = str(plot_trials(
                 trial_rows, trials_path, PUBLISHED_TABLE3 if published_applies else None))
     if as_json:
         typer.echo(json_line(out))
+        return
+    if comp_names:
+        _print_compensated(out, base, intensity, noise, force_delay, convention, trials)
+        if not published_applies:
+            typer.echo("(the paper publishes Table 3 only for El Centro × 0.4, nominal plant, "
+                       "noise on)")
         return
     head = "case  row        " + "".join(k.rjust(7) for k in J_KEYS)
     typer.echo(f"RTHS benchmark: {base.excitation} × {intensity}, noise "
@@ -161,7 +222,7 @@ def rths(
                        f"max |F_act| = {tr['max_force_N']:.0f} N")
             for reason in tr["stopped"]:
                 typer.echo(f"{'':>4}  stopped trial: {reason}")
-    for key in ("plot", "plot_trials"):
+    for key in ("plot", "plot_trials", "plot_compensator"):
         if key in out:
             typer.echo(f"wrote {out[key]}")
     if not published_applies:
@@ -174,3 +235,130 @@ def _overrides_only(items: list[str]) -> dict:
     from ..scene import apply_overrides
 
     return apply_overrides({}, items)
+
+
+def _compensator_args(compensator: str, items: list[str]) -> tuple[list[str], dict]:
+    """The compensators to run and their parameters per name from ``--comp-set``."""
+    from ..compensation import COMPENSATORS, compensator_names
+    from ..errors import ConfigError
+    from ..scene import apply_overrides
+
+    if not compensator:
+        if items:
+            raise ConfigError("--comp-set", items[0], "needs --compensator")
+        return [], {}
+    names = compensator_names() if compensator == "all" else [compensator]
+    if compensator != "all" and compensator not in COMPENSATORS:
+        raise ConfigError("--compensator", compensator,
+                          "must be one of " + ", ".join(compensator_names()) + " or all")
+    raw = apply_overrides({}, items)
+    if compensator == "all":
+        for key, value in raw.items():
+            if key not in COMPENSATORS or not isinstance(value, dict):
+                raise ConfigError(f"--comp-set {key}", value, "with --compensator all, give "
+                                  "name.key=value (name: " + ", ".join(names) + ")")
+        params = raw
+    else:
+        params = {compensator: raw}
+    from ..compensation import config_from_dict
+
+    for name, p in params.items():  # refuse bad keys before anything runs
+        config_from_dict(name, p, "--comp-set")
+    return names, params
+
+
+def _config_dict(config: Any) -> dict:
+    from dataclasses import asdict
+
+    return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(config).items()}
+
+
+def _median_row(results: list) -> dict:
+    import numpy as np
+
+    rows = [r.table_row() for r in results]
+    return {k: round(float(np.median([r[k] for r in rows])), 3) for k in J_KEYS}
+
+
+def _compensated_entry(rs: list, bench: list | None) -> dict:
+    """The nominal run (first) and, with more, the perturbed trials of one compensator."""
+    import numpy as np
+
+    r0 = rs[0]
+    ok0 = r0.status == "ok" and bool(r0.j)
+    e: dict[str, Any] = dict(r0.table_row()) if ok0 else dict.fromkeys(J_KEYS)
+    e.update(status=r0.status, reason=r0.reason, max_force_N=round(r0.peak_force, 1),
+             coefficients={k: float(v) for k, v in r0.coefficients.items()})
+    tr = rs[1:]
+    if tr:
+        ok = [r for r in tr if r.status == "ok" and r.j]
+        t: dict[str, Any] = {"n": len(tr), "ok": len(ok),
+                             "stopped": [r.reason for r in tr if r.status != "ok"],
+                             "max_force_N": round(max(r.peak_force for r in tr), 1)}
+        if ok:
+            J = np.array([[r.table_row()[k] for k in J_KEYS] for r in ok])
+            for stat, fn in (("median", np.median), ("mean", np.mean), ("std", np.std),
+                             ("min", np.min), ("max", np.max)):
+                t[stat] = {k: round(float(v), 3) for k, v in zip(J_KEYS, fn(J, axis=0),
+                                                                 strict=True)}
+        if bench is not None and len(bench) == len(tr):
+            ratios = [r.table_row()["J2"] / b.table_row()["J2"]
+                      for r, b in zip(tr, bench, strict=True)
+                      if r.status == "ok" and b.status == "ok" and r.j and b.j]
+            if ratios:
+                t["J2_ratio_median"] = round(float(np.median(ratios)), 4)
+                t["J2_ratio_max"] = round(float(np.max(ratios)), 4)
+        e["trials"] = t
+    return e
+
+
+def _print_compensated(out: dict, base: Any, intensity: float, noise: bool, force_delay: bool,
+                       convention: str, trials: int) -> None:
+    names = list(out["compensators"])
+    typer.echo(f"RTHS benchmark: {base.excitation} × {intensity}, noise "
+               f"{'on' if noise else 'off'}, force delay {'on' if force_delay else 'off'}, "
+               f"{convention} convention (J1 in ms, J2–J9 in %)")
+    typer.echo("outer compensation (the phase lead) replaced by: " + ", ".join(names)
+               + (" — calibrated on a predefined displacement test" if out["calibrated"]
+                  else ""))
+    n_ok = max((e.get("trials", {}).get("ok", 0) for e in out["cases"].values()), default=0)
+    width = max(14, *(len(f"{n} median({n_ok})") + 1 for n in ("bench", *names)))
+    head = "case  " + "row".ljust(width) + "".join(k.rjust(7) for k in J_KEYS)
+    typer.echo(head)
+
+    def row(c: str, label: str, vals: dict) -> None:
+        typer.echo(f"{c:>4}  {label.ljust(width)}" + "".join(_fmt(vals[k]) for k in J_KEYS))
+
+    for c, e in out["cases"].items():
+        if e["published"]:
+            row(c, "published", e["published"])
+        if e["status"] != "ok":
+            typer.echo(f"{c:>4}  {'benchmark'.ljust(width)}STOPPED  {e['reason']}")
+        else:
+            row(c, "benchmark", e)
+        for name, ce in e["compensators"].items():
+            if ce["status"] != "ok":
+                typer.echo(f"{c:>4}  {name.ljust(width)}STOPPED  {ce['reason']}")
+            else:
+                row(c, name, ce)
+        if trials:
+            bt = e.get("trials", {})
+            if "median" in bt:
+                row("", f"bench median({bt['ok']})", bt["median"])
+            for name, ce in e["compensators"].items():
+                t = ce.get("trials", {})
+                if "median" in t:
+                    row("", f"{name} median({t['ok']})", t["median"])
+            for name, ce in e["compensators"].items():
+                t = ce.get("trials", {})
+                ratio = (f", median J2 ratio to the benchmark {t['J2_ratio_median']:.3f} (max "
+                         f"{t['J2_ratio_max']:.3f})" if "J2_ratio_median" in t else "")
+                worst = (f", max J1 {t['max']['J1']:.1f} ms, max J2 {t['max']['J2']:.2f} %"
+                         if "max" in t else "")
+                typer.echo(f"{'':>4}  {name}: {t.get('ok', 0)}/{t.get('n', 0)} trials completed"
+                           f"{worst}{ratio}")
+                for reason in t.get("stopped", []):
+                    typer.echo(f"{'':>4}    stopped trial: {reason}")
+    for key in ("plot", "plot_compensator"):
+        if key in out:
+            typer.echo(f"wrote {out[key]}")

@@ -10,7 +10,7 @@ import numpy as np
 from ..figures import new_figure, save_figure
 from .simulate import BenchmarkResult
 
-__all__ = ["plot_result", "plot_trials"]
+__all__ = ["plot_compensator", "plot_result", "plot_trials"]
 
 
 def plot_result(res: BenchmarkResult, path: str | Path, window: tuple[float, float] | None = None
@@ -63,4 +63,46 @@ def plot_trials(rows: Mapping[int, Sequence[Mapping[str, float]]], path: str | P
         ax.set_title(f"case {c} ({len(rows[c])} trials)")
         ax.tick_params(axis="x", labelrotation=60)
     axes[0][0].set_ylabel("criterion (%)")
+    return save_figure(fig, path)
+
+
+def plot_compensator(res: BenchmarkResult, bench: BenchmarkResult | None, path: str | Path,
+                     window: tuple[float, float] = (5.0, 15.0)) -> Path:
+    """A run with a compensator: its tracking error beside the benchmark controller's (same
+    case), the compensator's command against the desired displacement, and its coefficients
+    over the run (``res.history``)."""
+    hist = {k: v for k, v in res.history.items() if k != "t"}
+    if "gain" in hist and "lead" in hist:
+        hist = {"gain": hist["gain"], "lead (s)": hist["lead"]}
+    units = {"a1": " (s)", "a2": " (s²)", "u_fb": " (m)", "tau": " (s)"}
+    keys = list(hist)[:3]
+    fig = new_figure((9, 3.0 * (2 + len(keys))))
+    ax = fig.subplots(2 + len(keys), 1, sharex=True, squeeze=False)[:, 0]
+    sel = (res.t >= window[0]) & (res.t <= window[1])
+    ax[0].plot(res.t[sel], 1e3 * res.x_num[sel, 0], label="desired $y_n$")
+    if res.y_p is not None:
+        ax[0].plot(res.t[sel], 1e3 * res.y_p[sel], "--", label=f"command $y_p$ ({res.compensator})")
+    ax[0].plot(res.t[sel], 1e3 * res.x_m[sel], ":", label="measured $x_m$")
+    ax[0].set_ylabel("floor 1 (mm)")
+    ax[0].legend(loc="upper right")
+    if bench is not None:
+        bs = (bench.t >= window[0]) & (bench.t <= window[1])
+        ax[1].plot(bench.t[bs], 1e3 * (bench.x_m[bs] - bench.x_num[bs, 0]), lw=0.8,
+                   label="benchmark controller")
+    ax[1].plot(res.t[sel], 1e3 * (res.x_m[sel] - res.x_num[sel, 0]), lw=0.8,
+               label=res.compensator)
+    ax[1].set_ylabel("$x_m - y_n$ (mm)")
+    ax[1].legend(loc="upper right")
+    if "t" in res.history:
+        th = res.history["t"]
+        hs = (th >= window[0]) & (th <= window[1])
+        for a, k in zip(ax[2:], keys, strict=True):
+            a.plot(th[hs], hist[k][hs])
+            a.set_ylabel(k + units.get(k, ""))
+    ax[-1].set_xlabel("t (s)")
+    row = res.table_row()
+    c = res.config
+    ax[0].set_title(f"case {c.case}, {res.compensator}: J1 = {row['J1']:.1f} ms, "
+                    f"J2 = {row['J2']:.2f} %, J4 = {row['J4']:.2f} %" if res.status == "ok"
+                    else f"case {c.case}, {res.compensator}: STOPPED — {res.reason}")
     return save_figure(fig, path)

@@ -55,6 +55,8 @@ class BenchmarkResult:
     acceleration (m/s²), ``f_act`` actuator force (N), ``y_gc`` command (m), ``f_meas``
     measured force (N). ``status`` is ``ok`` or ``stopped`` with ``reason``; after a stop the
     arrays hold the samples up to and including the stopping one. ``j``: J1 (s), J2–J9 (%).
+    A run with a compensator in place of the phase lead also carries ``compensator``,
+    ``coefficients``, ``history`` and ``y_p``.
     """
 
     config: BenchmarkConfig
@@ -70,6 +72,15 @@ class BenchmarkResult:
     reason: str = ""
     j: dict[str, float] = field(default_factory=dict)
     plant: PlantParams | None = None
+    compensator: str = ""
+    """The outer compensation: "" for the benchmark's own phase lead (:func:`run_case`), else
+    the :mod:`rths3d.compensation` name that replaced it (:func:`.compensated.run_compensated`)."""
+    coefficients: dict[str, float] = field(default_factory=dict)
+    """The compensator's coefficients at the end of the run (adaptive ones: final values)."""
+    history: dict[str, np.ndarray] = field(default_factory=dict)
+    """``t`` (s) and the compensator's coefficients over the run, when sampled."""
+    y_p: np.ndarray | None = None
+    """The compensator's output (m), the PI loop's reference, when run with a compensator."""
 
     @property
     def peak_force(self) -> float:
@@ -97,6 +108,8 @@ class BenchmarkResult:
         for i in range(3):
             cols[f"x_num.{i}"] = self.x_num[:, i]
             cols[f"x_ref.{i}"] = self.x_ref[:, i]
+        if self.y_p is not None:
+            cols["y_p"] = self.y_p
         m = case_matrices(c.case, c.plant.m_e, c.plant.c_e, c.plant.k_e)
         meta: dict[str, Any] = {
             "scene": f"rthsbench_case{c.case}_{c.excitation}", "transfer": "lti",
@@ -108,6 +121,8 @@ class BenchmarkResult:
             "experiment": {"m_exp": c.plant.m_e, "k_exp": [[c.plant.k_e]],
                            "c_exp": c.plant.c_e},
             "j_criteria": self.j,
+            "compensator": self.compensator or "benchmark phase lead",
+            "compensator_coefficients": dict(self.coefficients),
             # fastest eigenfrequency of the numerical substructure (rad/s), for τ-ratios
             "omega_num_max": float(np.sqrt(np.max(np.linalg.eigvals(
                 np.linalg.solve(m.Mn, m.Kn)).real))),
