@@ -116,7 +116,9 @@ class TransferConfig:
     transport delay, ``delay`` then replacing the identification run's actuator delay, or a
     50 Hz second-order lag) or ``stewart`` (the MuJoCo Stewart platform). ``compensation``
     ``velocity`` adds ``comp_time``·ż to the command; ``polynomial`` extrapolates the command
-    ``comp_time`` ahead with a polynomial of ``poly_order`` through the last samples.
+    ``comp_time`` ahead with a polynomial of ``poly_order`` through the last samples; any
+    other registered compensator (``ats``, ``rls``, ``inverse``, ``model_based``, ``lead``)
+    takes its parameters from ``compensator``.
     ``kp``, ``kv`` (N/m, N·s/m), ``timeconst`` (s), ``velocity_ff`` and ``substeps`` tune the
     Stewart platform's leg servos; the ``lti`` path with the identified model follows
     ``timeconst`` and ``velocity_ff`` (with kv/kp) too, by exchanging the identification run's
@@ -135,6 +137,9 @@ class TransferConfig:
     timeconst: float = 0.0
     velocity_ff: bool = True
     substeps: int = 1
+    compensator: tuple[tuple[str, Any], ...] = ()
+    """The compensator's own parameters (the ``[transfer.compensator]`` table, sorted
+    key–value pairs; see :mod:`rths3d.compensation`)."""
 
 
 @dataclass(frozen=True)

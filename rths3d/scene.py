@@ -15,12 +15,13 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, fields
+from dataclasses import asdict, fields, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .compensation import compensator_names, config_from_dict
 from .config import (
     ExcitationConfig,
     ExperimentConfig,
@@ -37,7 +38,7 @@ from .experiment import part_class, part_kinds
 from .numerical.modal import coupled_fastest_eigenfrequency
 from .platform.geometry import DEFAULT_GEOMETRY
 from .record import DOFS
-from .transfer import compensator_kinds, transfer_class, transfer_kinds
+from .transfer import transfer_class, transfer_kinds
 
 __all__ = [
     "ExcitationConfig",
@@ -258,12 +259,20 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
             raise ConfigError("excitation.direction", list(exc.direction),
                               f"must have {num.n} entries (one per numerical DOF)")
     tr_sec = _section(raw, "transfer", TransferConfig)
+    comp_table = tr_sec.pop("compensator", {})
+    if not isinstance(comp_table, Mapping):
+        raise ConfigError("transfer.compensator", comp_table, "must be a table of the "
+                          "compensator's parameters")
     tr = _build(TransferConfig, "transfer", tr_sec, {
         "delay": {**nonneg, "hi": 0.5, "unit": "s"},
         "comp_time": {**nonneg, "hi": 0.1, "unit": "s"},
         "kp": pos, "kv": nonneg, "timeconst": nonneg})
     transfer_class(tr.kind)  # a ConfigError naming the registered kinds
-    _choice("transfer.compensation", tr.compensation, compensator_kinds())
+    _choice("transfer.compensation", tr.compensation, compensator_names())
+    if comp_table:
+        # checked by the compensator's own configuration (names, types, ranges)
+        config_from_dict(tr.compensation, comp_table, field="transfer.compensator")
+        tr = replace(tr, compensator=tuple(sorted(comp_table.items())))
     if tr.substeps < 1 or tr.substeps > 100:
         raise ConfigError("transfer.substeps", tr.substeps, "must be in 1…100")
     if tr.poly_order < 1 or tr.poly_order > 4:
@@ -419,6 +428,11 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
         d = asdict(getattr(scene, sec))
         out[sec] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in d.items()
                     if not (isinstance(v, float) and math.isnan(v))}
+    tr = out["transfer"]
+    tr["compensator"] = {k: (list(v) if isinstance(v, tuple) else v)
+                         for k, v in scene.transfer.compensator}
+    if not tr["compensator"]:
+        del tr["compensator"]
     return out
 
 

@@ -34,14 +34,17 @@ from dataclasses import MISSING, dataclass, fields
 from numbers import Integral, Real
 from typing import Any, ClassVar, Protocol, runtime_checkable
 
+import numba
 import numpy as np
 from numba import njit
 
+from ..effects.blocks import F1, F2
 from ..errors import ConfigError, SafetyStop
 
 __all__ = [
-    "COMPENSATORS", "BaseCompensator", "Compensator", "CompensatorConfig", "WatchConfig",
-    "build", "compensator_class", "compensator_names", "config_from_dict", "register",
+    "COMPENSATORS", "COMP_SIG", "BaseCompensator", "Compensator", "CompensatorConfig",
+    "WatchConfig", "build", "comp_kernel", "compensator_class", "compensator_names",
+    "config_from_dict", "register",
 ]
 
 
@@ -68,6 +71,16 @@ class Compensator(Protocol):
     def reset(self) -> None: ...
 
     def coefficients(self) -> dict[str, np.ndarray]: ...
+
+
+COMP_SIG = numba.types.void(F2, F2, F1, F1, F1, F1)
+"""Signature of a compensator's per-step kernel for the compiled loop: (params (R, P),
+state (R, S), z (R,), ż (R,), z_meas (R,), u (R,)) over R = K·n rows."""
+
+
+def comp_kernel(fn: Any) -> Any:
+    """Compile ``fn`` as a compensator kernel (:data:`COMP_SIG`, cached)."""
+    return numba.njit(COMP_SIG, cache=True, nogil=True)(fn)
 
 
 COMPENSATORS: dict[str, type[BaseCompensator]] = {}
@@ -356,6 +369,11 @@ class BaseCompensator:
 
     def coefficients(self) -> dict[str, np.ndarray]:
         return {}
+
+    def compiled(self) -> tuple[tuple[Any], np.ndarray, np.ndarray] | None:
+        """((kernel,), params, state) of a compensator whose step is one :data:`COMP_SIG`
+        kernel (the compiled loop runs it); None for those stepped from Python."""
+        return None
 
     # -- stops -------------------------------------------------------------------------
     def _stop(self, k: int, quantity: str, value: float, limit: float, unit: str = "",

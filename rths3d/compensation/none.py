@@ -6,7 +6,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .base import BaseCompensator, CompensatorConfig, register
+from .base import BaseCompensator, CompensatorConfig, comp_kernel, register
+
+
+@comp_kernel
+def copy_kernel(p, s, z, zd, zm, u):
+    """u = z."""
+    for r in range(z.shape[0]):
+        u[r] = z[r]
 
 
 @dataclass(frozen=True)
@@ -26,3 +33,7 @@ class NoCompensation(BaseCompensator):
         np.copyto(self.u, z)
         self.calls += 1
         return self.u
+
+    def compiled(self):
+        R = self.K * self.n
+        return (copy_kernel,), np.zeros((R, 0)), np.zeros((R, 0))

@@ -8,7 +8,22 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .base import BaseCompensator, CompensatorConfig, check, register
+from .base import BaseCompensator, CompensatorConfig, check, comp_kernel, register
+
+
+@comp_kernel
+def polynomial_kernel(p, s, z, zd, zm, u):
+    """Shift the history (newest first) and extrapolate: u = Σ_j w_j z_{n−j}; ``p`` rows:
+    the weights, ``s`` rows: the history."""
+    m = s.shape[1]
+    for r in range(z.shape[0]):
+        for j in range(m - 1, 0, -1):
+            s[r, j] = s[r, j - 1]
+        s[r, 0] = z[r]
+        acc = p[r, 0] * s[r, 0]
+        for j in range(1, m):
+            acc += p[r, j] * s[r, j]
+        u[r] = acc
 
 
 def lagrange_weights(tau: float, dt: float, order: int) -> np.ndarray:
@@ -50,9 +65,10 @@ class PolynomialCompensator(BaseCompensator):
         super().__init__(config, K, n, dt)
         self.order = int(config.order)
         self.w = lagrange_weights(config.tau, dt, self.order)
-        self.hist = np.zeros((self.order + 1, K, n))
-        self._pass = config.tau == 0.0
         self._tau = np.full((K, n), float(config.tau))
+        self._params = np.ascontiguousarray(np.tile(self.w, (K * n, 1)))
+        self.hist = np.zeros((K * n, self.order + 1))
+        """The last order + 1 commands per row, newest first."""
 
     def reset(self) -> None:
         super().reset()
@@ -60,15 +76,13 @@ class PolynomialCompensator(BaseCompensator):
 
     def command(self, z: np.ndarray, zdot: np.ndarray, z_meas: np.ndarray) -> np.ndarray:
         self.calls += 1
-        if self._pass:
-            np.copyto(self.u, z)
-            return self.u
-        h = self.hist
-        for j in range(self.order, 0, -1):  # shift in place, newest first (no copy)
-            h[j] = h[j - 1]
-        h[0] = z
-        np.einsum("j,jkn->kn", self.w, h, out=self.u)
+        polynomial_kernel(self._params, self.hist, np.ascontiguousarray(z).reshape(-1),
+                          np.ascontiguousarray(zdot).reshape(-1), self.u.reshape(-1),
+                          self.u.reshape(-1))
         return self.u
+
+    def compiled(self):
+        return (polynomial_kernel,), self._params, self.hist
 
     def coefficients(self) -> dict[str, np.ndarray]:
         return {"tau": self._tau}

@@ -7,7 +7,21 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .base import BaseCompensator, CompensatorConfig, channel_values, check, register
+from .base import (
+    BaseCompensator,
+    CompensatorConfig,
+    channel_values,
+    check,
+    comp_kernel,
+    register,
+)
+
+
+@comp_kernel
+def velocity_kernel(p, s, z, zd, zm, u):
+    """u = ż τ_c + z per row (τ_c = 0: u = z)."""
+    for r in range(z.shape[0]):
+        u[r] = zd[r] * p[r, 0] + z[r]
 
 
 @dataclass(frozen=True)
@@ -35,12 +49,18 @@ class VelocityCompensator(BaseCompensator):
     def __init__(self, config: VelocityConfig, K: int, n: int, dt: float):
         super().__init__(config, K, n, dt)
         self.tau = channel_values("velocity.tau", config.tau, K, n, per="test")
+        self._params = np.array(self.tau.reshape(-1, 1))  # writable (a kernel argument)
+        self._state = np.zeros((K * n, 0))
 
     def command(self, z: np.ndarray, zdot: np.ndarray, z_meas: np.ndarray) -> np.ndarray:
-        np.multiply(zdot, self.tau, out=self.u)
-        self.u += z
+        velocity_kernel(self._params, self._state, np.ascontiguousarray(z).reshape(-1),
+                        np.ascontiguousarray(zdot).reshape(-1), self.u.reshape(-1),
+                        self.u.reshape(-1))
         self.calls += 1
         return self.u
+
+    def compiled(self):
+        return (velocity_kernel,), self._params, self._state
 
     def coefficients(self) -> dict[str, np.ndarray]:
         return {"tau": self.tau}

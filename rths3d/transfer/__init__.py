@@ -25,19 +25,13 @@ from .base import (
     transfer_kinds,
 )
 from .chain import ChainTransfer
-from .compensators import (
-    COMPENSATORS,
-    compensator_class,
-    compensator_kinds,
-    register_compensator,
-)
+from .commands import compensator_key, compensator_of
 from .delay import DelayTransfer
 from .ideal import IdealTransfer
 from .lti import LTITransfer
 from .stewart import StewartTransfer
 
 __all__ = [
-    "COMPENSATORS",
     "TRANSFERS",
     "ChainTransfer",
     "Compensator",
@@ -55,12 +49,11 @@ __all__ = [
     "TransferSystem",
     "batch_key",
     "build_transfer",
-    "compensator_class",
-    "compensator_kinds",
+    "compensator_key",
+    "compensator_of",
     "default_transfer_function",
     "default_transport_delay",
     "discretise_tf",
-    "register_compensator",
     "register_transfer",
     "transfer_class",
     "transfer_kinds",

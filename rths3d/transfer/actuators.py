@@ -22,6 +22,7 @@ import control
 import numpy as np
 import scipy.signal
 
+from ..compensation import build
 from ..effects.blocks import (
     Chain,
     DelayBlock,
@@ -32,7 +33,6 @@ from ..effects.blocks import (
     OffsetBlock,
 )
 from ..errors import ConfigError
-from .compensators import NoCompensation, PolynomialExtrapolation, VelocityFeedForward
 
 DEFAULT_TF_OMEGA = 2 * math.pi * 50.0
 """Fallback actuator model: second-order lag, 50 Hz, ζ = 0.7 (≈ 4.5 ms delay at low f, the
@@ -253,18 +253,19 @@ class Compensator:
         if np.ndim(tau) and kind != "velocity":
             raise ValueError(f"per-test tau needs kind 'velocity', not {kind!r}")
         if kind == "polynomial":
-            self.comp = PolynomialExtrapolation(K, n, tau, dt, order)
+            self.comp = build("polynomial", K, n, dt, {"tau": float(tau), "order": order})
         elif kind == "velocity":
-            self.comp = VelocityFeedForward(K, n, tau)
+            taus = tuple(float(t) for t in np.ravel(tau)) if np.ndim(tau) else float(tau)
+            self.comp = build("velocity", K, n, dt, {"tau": taus})
         else:
-            self.comp = NoCompensation(K, n)
+            self.comp = build("none", K, n, dt)
         self.kind = kind
 
     def reset(self) -> None:
         self.comp.reset()
 
     def __call__(self, z: np.ndarray, zdot: np.ndarray) -> np.ndarray:
-        return self.comp(z, zdot)
+        return self.comp.command(z, zdot, z)
 
 
 class SensorModel(_Blocks):

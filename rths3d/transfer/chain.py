@@ -15,11 +15,12 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from ..compensation import BaseCompensator
 from ..config import Scene
 from ..effects.blocks import Chain
 from ..experiment import build_part_model, part_class
 from .base import CompiledTransfer, RecordSignal, sensor_key, setting
-from .compensators import Compensator, compensator_class
+from .commands import compensator_key, compensator_of
 from .sensor import sensor_chain
 
 __all__ = ["ChainTransfer"]
@@ -33,7 +34,7 @@ class ChainTransfer:
     kind: ClassVar[str] = ""
     signals: tuple[RecordSignal, ...] = ()
 
-    def __init__(self, scenes: Sequence[Scene], compensator: Compensator, actuator: Chain,
+    def __init__(self, scenes: Sequence[Scene], compensator: BaseCompensator, actuator: Chain,
                  part: Any, sensor: Chain, metas: Sequence[dict[str, Any]]):
         self.scenes = list(scenes)
         K, n = len(self.scenes), len(self.scenes[0].dofs)
@@ -73,7 +74,7 @@ class ChainTransfer:
               specimen: str = "auto") -> ChainTransfer:
         base = scenes[0]
         n = len(base.dofs)
-        comp = compensator_class(base.transfer.compensation).from_scenes(scenes, n)
+        comp = compensator_of(scenes, n)
         act, metas = cls.actuator_chain(scenes, n)
         part = build_part_model([s.experiment for s in scenes], base.dofs, base.dt,
                                 model=specimen, nthread=nthread)
@@ -83,8 +84,7 @@ class ChainTransfer:
 
     @classmethod
     def batch_key(cls, settings: Mapping[str, Any]) -> Hashable:
-        comp = compensator_class(settings.get("transfer.compensation", "none"))
-        return (comp.batch_key(settings), cls.actuator_key(settings),
+        return (compensator_key(settings), cls.actuator_key(settings),
                 part_class(settings.get("experiment.kind", "contact")).batch_key(settings),
                 sensor_key(settings))
 
@@ -100,21 +100,25 @@ class ChainTransfer:
         self.reasons = [""] * self.K
 
     def step(self, z: np.ndarray, zdot: np.ndarray) -> None:
-        u = self.compensator(z, zdot, self.z_meas)
+        comp = self.compensator
+        u = comp.command(z, zdot, self.z_meas)
         zm = self.actuator(u)
         f = self.part.advance(self.z_prev, zm)
         self.f_true[:] = f
         self.f_meas[:] = self.sensor(f)
         self.z_prev[:] = zm
         self.z_meas[:] = zm
+        if comp.stopped.any():  # an adaptive compensator drifted: the bench stops the test
+            self.stopped[:] = comp.stopped
+            self.reasons = list(comp.reasons)
 
     def compiled(self) -> CompiledTransfer | None:
         part = self.part.compiled()
-        if part is None:
+        comp = self.compensator.compiled()
+        if part is None or comp is None:
             return None
-        c = self.compensator
         a, s = self.actuator, self.sensor
-        return CompiledTransfer(((type(c).kernel,), c.params, c.state),
+        return CompiledTransfer(comp,
                                 (a.fns, a.params, a.states), ((part[0],), part[1], part[2]),
                                 (s.fns, s.params, s.states),
                                 a if a.noise is not None else None,

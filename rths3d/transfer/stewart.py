@@ -13,7 +13,7 @@ from ..platform.model import ActuatorConfig, PlatformConfig, predicted_delay
 from ..platform.sim import PlatformBatch, plate_pose
 from ..record import DOFS
 from .base import RecordSignal, register_transfer, sensor_key, setting
-from .compensators import compensator_class
+from .commands import compensator_key, compensator_of
 from .sensor import sensor_chain
 
 __all__ = ["StewartTransfer", "platform_config"]
@@ -56,8 +56,7 @@ class StewartTransfer:
         self.sim = PlatformBatch(cfg, nsim=K, nthread=nthread or 2, payload_xml=variants[0][1],
                                  world_xml=variants[0][2], variants=None if one else variants)
         self.idx = np.array([DOFS.index(d) for d in base.dofs], dtype=np.int64)
-        self.compensator = compensator_class(base.transfer.compensation).from_scenes(
-            self.scenes, self.n_if)
+        self.compensator = compensator_of(self.scenes, self.n_if)
         self.sensor = sensor_chain(self.scenes, self.n_if)
         self.pose_cmd = self.sim.poses
         self._f = np.zeros((K, self.n_if))
@@ -94,8 +93,7 @@ class StewartTransfer:
     @classmethod
     def batch_key(cls, settings: Mapping[str, Any]) -> Hashable:
         s = settings
-        comp = compensator_class(s.get("transfer.compensation", "none"))
-        return (comp.batch_key(s), setting(s, "transfer.delay", 0.0),
+        return (compensator_key(s), setting(s, "transfer.delay", 0.0),
                 setting(s, "transfer.timeconst", 0.0) > 0, setting(s, "transfer.substeps", 1),
                 part_class(s.get("experiment.kind", "contact")).batch_key(s), sensor_key(s))
 
@@ -119,7 +117,7 @@ class StewartTransfer:
         self.reasons = [""] * self.K
 
     def step(self, z: np.ndarray, zdot: np.ndarray) -> None:
-        u = self.compensator(z, zdot, self.z_meas)
+        u = self.compensator.command(z, zdot, self.z_meas)
         sim = self.sim
         sim.poses[:, self.idx] = u
         sim._advance()
@@ -131,6 +129,11 @@ class StewartTransfer:
         if sim._any_stopped:
             self.stopped[:] = sim.stopped
             self.reasons = list(sim.reasons)
+        comp = self.compensator
+        if comp.stopped.any():  # an adaptive compensator drifted: stop like any limit
+            for k in np.flatnonzero(comp.stopped & ~self.stopped):
+                self.stopped[k] = True
+                self.reasons[k] = comp.reasons[k]
 
     def compiled(self) -> None:
         """MuJoCo runs from Python: the loop steps this system from Python."""
