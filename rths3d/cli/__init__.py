@@ -39,7 +39,10 @@ def version() -> None:
 
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``rths3d`` console script."""
-    from typer._click.exceptions import ClickException  # typer vendors click
+    try:
+        from typer._click.exceptions import ClickException  # newer typer vendors click
+    except ImportError:  # pragma: no cover - older typer uses click itself
+        from click.exceptions import ClickException
 
     from ..errors import RthsError
 
