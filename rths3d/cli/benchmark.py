@@ -9,6 +9,7 @@ from typing import Any
 import typer
 
 from ._app import app, json_line
+from ._output import Keeper
 
 bench_app = typer.Typer(help="Community benchmarks reproduced with rths3d.", no_args_is_help=True)
 app.add_typer(bench_app, name="benchmark")
@@ -123,15 +124,19 @@ def rths(
                                                  for k, v in zip(J_KEYS, fn(J, axis=0),
                                                                  strict=True)}
             out["cases"][str(c)] = entry
+    keeper = Keeper()
     if plot:
         from ..rthsbench.plots import plot_result, plot_trials
 
-        out["plot"] = str(plot_result(first, plot_path))
+        out["plot"] = str(keeper.write(lambda p: plot_result(first, p), plot_path, "--plot"))
         if trial_rows:
-            out["plot_trials"] = str(plot_trials(
-                trial_rows, trials_path, PUBLISHED_TABLE3 if published_applies else None))
+            out["plot_trials"] = str(keeper.write(
+                lambda p: plot_trials(trial_rows, p,
+                                      PUBLISHED_TABLE3 if published_applies else None),
+                trials_path, "--plot"))
     if as_json:
         typer.echo(json_line(out))
+        keeper.finish()
         return
     head = "case  row        " + "".join(k.rjust(7) for k in J_KEYS)
     typer.echo(f"RTHS benchmark: {base.excitation} × {intensity}, noise "
@@ -167,6 +172,7 @@ def rths(
     if not published_applies:
         typer.echo("(the paper publishes Table 3 only for El Centro × 0.4, nominal plant, "
                    "noise on)")
+    keeper.finish()
 
 
 def _overrides_only(items: list[str]) -> dict:
