@@ -70,3 +70,12 @@ def json_line(obj: Any, **kw: Any) -> str:
     """``obj`` as one line of valid JSON: non-finite floats (NaN from constant data, a
     prediction from NaN inputs) become null, since a bare NaN breaks standard readers."""
     return json.dumps(_finite(obj), allow_nan=False, **kw)
+
+
+def warn_implausible(record: Any, source: Any) -> None:
+    """Print one warning line (stderr) per number of ``record`` implausible in SI units (a
+    record in mm or with time in ms): its measures would be wrong by factors of 1000."""
+    from ..plausibility import implausible
+
+    for line in implausible(record):
+        typer.echo(f"warning: {source}: {line}", err=True)
