@@ -27,7 +27,7 @@ import functools
 import math
 import threading
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
@@ -294,7 +294,9 @@ def _run_group(scenes: list[Scene], *, reference: bool | str, nthread: int,
                        numerical, test_ids)
     t0 = time.perf_counter()
     pbar = None
-    if progress:
+    # a callable: called every 500 steps with the tests' worth of work done since (K·500/N)
+    report = progress if callable(progress) else None
+    if progress and report is None:
         from tqdm import tqdm
 
         pbar = tqdm(total=N, desc=f"{base.transfer.kind} ×{K}", unit="step", mininterval=0.5)
@@ -438,6 +440,8 @@ def _run_group(scenes: list[Scene], *, reference: bool | str, nthread: int,
                     time.sleep(ahead)
         if pbar is not None and n % 500 == 0:
             pbar.update(min(500, N - pbar.n))
+        elif report is not None and (n + 1) % 500 == 0:
+            report(500 * K / N)
     wall = time.perf_counter() - t0
     flush(N + 1)
     if pbar is not None:
@@ -664,7 +668,8 @@ def _group_key(s: Scene) -> tuple:
 
 def run_batch(scene: Scene, param_sets: Sequence[Mapping[str, Any]], transfer: str | None = None,
               *, reference: bool = True, max_k: int = 256, nthread: int = 0,
-              progress: bool = False, specimen: str = "auto") -> list[RunResult]:
+              progress: bool | Callable[[float], None] = False, specimen: str = "auto"
+              ) -> list[RunResult]:
     """Run one test per parameter set, stepping compatible tests together (K at a time).
 
     ``param_sets``: dotted-key overrides per test, e.g. ``[{"numerical.k": 5e3,
@@ -675,10 +680,15 @@ def run_batch(scene: Scene, param_sets: Sequence[Mapping[str, Any]], transfer: s
     parameters per test), the 1-D LTI path with the vectorised numpy specimen (actuator
     delay, model and compensation none/velocity per test, see docs/loop.md). Results come
     back in the order of ``param_sets``. A bad parameter raises
-    :class:`~rths3d.errors.ConfigError` naming the set's index.
+    :class:`~rths3d.errors.ConfigError` naming the set's index. ``progress``: a bar per
+    group, or a callable called now and then with the tests' worth of work done since its
+    last call (a sweep's progress within a batch).
     """
     if transfer is not None:
         scene = scene.with_transfer(transfer)
+    if callable(progress) and reference:  # the loop and the reference pass: half each
+        report = progress
+        progress = lambda tests: report(0.5 * tests)  # noqa: E731
     scenes = []
     raw = scene_to_dict(scene)
     for i, ps in enumerate(param_sets):

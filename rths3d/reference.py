@@ -90,7 +90,9 @@ def reference_solution(scenes: list[Scene], *, tol: float | None = None, max_ite
     iters = 0
     passes = 0
     rng = range(N)
-    if progress:
+    # a callable: called every 500 steps with the tests' worth of work done since (K·500/N)
+    report = progress if callable(progress) else None
+    if progress and report is None:
         from tqdm import tqdm
 
         rng = tqdm(rng, desc="reference", unit="step", mininterval=0.5)
@@ -140,5 +142,7 @@ def reference_solution(scenes: list[Scene], *, tol: float | None = None, max_ite
         z_ref[:, n + 1] = num.z
         f_ref[:, n + 1] = f1
         x_ref[:, n + 1] = num.x
+        if report is not None and (n + 1) % 500 == 0:
+            report(500 * K / N)
     return {"z_ref": z_ref, "f_ref": f_ref, "x_ref": x_ref, "iterations": np.array(iters),
             "mean_iterations": np.array(passes / max(N, 1))}
