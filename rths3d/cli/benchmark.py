@@ -52,16 +52,17 @@ def rths(
     """
     from dataclasses import replace
 
-    import numpy as np
-
     from ..errors import ConfigError
-    from ..rthsbench import PUBLISHED_TABLE3, BenchmarkConfig, load_excitation, run_case, run_trials
-    from ..rthsbench.scene import config_from_dict, load_benchmark_scene
 
+    # the cheap checks before the benchmark's (scipy) imports
     if case not in (0, 1, 2, 3, 4):
         raise ConfigError("--case", case, "must be 1, 2, 3 or 4 (0 for all)")
     if trials < 0:
         raise ConfigError("--trials", trials, "must be ≥ 0")
+    import numpy as np
+
+    from ..rthsbench import PUBLISHED_TABLE3, BenchmarkConfig, load_excitation, run_case, run_trials
+    from ..rthsbench.scene import config_from_dict, load_benchmark_scene
     if plot:
         from ..figures import check_output, png_path
 

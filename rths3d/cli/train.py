@@ -60,11 +60,12 @@ def train(
     """
     import warnings
 
-    from ..ann import FidelityANN, parse_topologies
     from ..dataset.store import join_tables, read_table
     from ..dataset.table import PARAM, parse_features, parse_ratings, training_data, within_ratings
     from ..errors import ConfigError
 
+    if transform not in ("log", "linear"):
+        raise ConfigError("--transform", transform, "must be log or linear")
     chosen = parse_features(features)
     limits = parse_ratings(ratings) if ratings is not None else {}
     check_file(out, "--out")
@@ -82,6 +83,8 @@ def train(
                                 extra=extra or ())
     if len(y) < 10:
         raise ConfigError("table", f"{len(y)} usable rows", "need at least 10 finished tests")
+    from ..ann import FidelityANN, parse_topologies  # torch: after the cheap checks
+
     model = FidelityANN(topologies=parse_topologies(topologies), n_trainings=trainings,
                         seed=seed, transform=transform, bypass=bypass)
     model.target_name = target
@@ -130,13 +133,17 @@ def predict(
 
     import numpy as np
 
-    from ..ann import ExtrapolationWarning, FidelityANN, NonFiniteInputWarning, pearson_rho
     from ..dataset.store import read_table
     from ..dataset.table import FEATURE, PARAM, TARGET, input_column
     from ..errors import ConfigError
 
-    net = FidelityANN.load(model)
+    if not model.is_file():  # the cheap checks before torch is imported
+        raise ConfigError("model", str(model), "file does not exist" if not model.exists()
+                          else "is a folder, not a model file")
     frame = read_table(data)
+    from ..ann import ExtrapolationWarning, FidelityANN, NonFiniteInputWarning, pearson_rho
+
+    net = FidelityANN.load(model)
     not_scalar: dict[str, tuple[int, ...]] = {}
     if "t" in frame.columns and not any(c.startswith(FEATURE) for c in frame.columns):
         from ..dataset.runner import record_features

@@ -136,6 +136,8 @@ def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = 
         raise ConfigError("workers", workers, "must be >= 1")
     rows_fn = rows_fn or run_rows
     spec = prepare(spec)
+    if scheduler:
+        _probe_scheduler(scheduler)
     all_batches = batches_of(spec)
     store = SweepStore(out, spec.name, spec.digest(), spec.batch_size,
                        sum(len(t) for _, t in all_batches), scene_hashes(spec)).open()
@@ -309,6 +311,44 @@ def _watch_lifeline(conn) -> None:
     except (EOFError, OSError):
         pass
     os._exit(1)
+
+
+SCHEDULER_TIMEOUT = 10.0
+"""Seconds a Dask scheduler has to answer (connection and handshake)."""
+
+
+def _probe_scheduler(address: str, timeout: float = SCHEDULER_TIMEOUT) -> None:
+    """ConfigError unless a Dask scheduler answers at ``address`` within ``timeout`` s.
+
+    distributed's own connect waits forever for the handshake of a server that accepts the
+    connection but is not a Dask scheduler (its timeout covers the connection only), so the
+    whole exchange runs under one deadline, in a thread of its own (the caller may have an
+    event loop running)."""
+    import asyncio
+
+    try:
+        from distributed.comm import connect
+    except ImportError as exc:  # pragma: no cover - dask[distributed] is a dependency
+        raise ConfigError("scheduler", address, "needs dask[distributed] installed") from exc
+    failed: list[BaseException] = []
+
+    async def handshake() -> None:
+        comm = await asyncio.wait_for(connect(address, timeout=timeout), timeout)
+        await comm.close()
+
+    def probe() -> None:
+        try:
+            asyncio.run(handshake())
+        except BaseException as exc:  # noqa: BLE001 - reported below as one line
+            failed.append(exc)
+
+    worker = threading.Thread(target=probe, name="rths3d-scheduler-probe", daemon=True)
+    worker.start()
+    worker.join(timeout + 5.0)
+    if worker.is_alive() or failed:
+        why = (f"no answer within {timeout:g} s" if worker.is_alive() or
+               isinstance(failed[0], TimeoutError) else str(failed[0]) or type(failed[0]).__name__)
+        raise ConfigError("scheduler", address, f"no Dask scheduler answers there ({why})")
 
 
 def _run_dask(spec, todo, scheduler, rec_dir, rows_fn, finished, advance) -> None:
