@@ -61,8 +61,9 @@ def main() -> None:
     try:
         from sklearn.ensemble import HistGradientBoostingRegressor
     except ImportError:
-        sys.exit("this probe needs scikit-learn (not an rths3d dependency): "
-                 "pip install scikit-learn")
+        from rths3d.errors import MissingDependency
+
+        raise MissingDependency("scikit-learn", "the feature probe", "probe") from None
     import numpy as np
 
     from rths3d.ann.estimator import Compress

@@ -43,7 +43,9 @@ def main() -> None:
     args = ap.parse_args()
     if args.screenshot:
         from rths3d.figures import check_output
+        from rths3d.viz.screenshot import require_browser
 
+        require_browser()  # Playwright and Chromium, before the test runs
         check_output(args.screenshot, "--screenshot")
 
     path = Path(args.record) if args.record else make_record(Path("out/contact_delay.parquet"))

@@ -37,6 +37,17 @@ class ConfigError(RthsError, ValueError):
                 (self.field, self.value, self.limit), self.__dict__)
 
 
+class MissingDependency(RthsError, ImportError):
+    """An optional dependency a feature needs is not installed; the message names the extra
+    to install, e.g. ``the screenshot needs playwright: pip install 'rths3d[browser]'``."""
+
+    def __init__(self, module: str, feature: str, extra: str):
+        self.module = module
+        self.extra = extra
+        super().__init__(f"{feature} needs {module}, which is not installed: "
+                         f"pip install 'rths3d[{extra}]'")
+
+
 class RecordError(RthsError, ValueError):
     """A record file is unreadable or does not follow the documented schema."""
 

@@ -8,7 +8,9 @@ saves the PNG.
 
 from __future__ import annotations
 
+import contextlib
 import os
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +38,15 @@ def save_figure(fig: Any, path: str | os.PathLike, *, title: str = "", dpi: int 
         fig.tight_layout(rect=rect)
     out = png_path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=dpi)
+    # written under a temporary name and renamed: a failed write leaves no partial PNG
+    tmp = out.with_name(f".{out.name}.tmp{os.getpid()}")
+    try:
+        fig.savefig(tmp, dpi=dpi, format=out.suffix[1:].lower() or "png")
+        os.replace(tmp, out)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink(missing_ok=True)
+        raise
     return out
 
 
@@ -46,9 +56,13 @@ def png_path(path: str | os.PathLike) -> Path:
     return out if out.suffix else out.with_name(out.name + ".png")
 
 
-def check_output(path: str | os.PathLike, option: str, *, folder: bool = False) -> Path:
+def check_output(path: str | os.PathLike, option: str, *, folder: bool = False,
+                 create: bool = True) -> Path:
     """Check, before any long work, that ``path`` can be written: a file (its folder is
-    created) or, with ``folder=True``, a folder (created). ConfigError naming ``option``."""
+    created; not an existing folder) or, with ``folder=True``, a folder (created; not an
+    existing file). The folder is tried with a probe file. ``create=False``: nothing is
+    created; the nearest existing folder on the way is tried instead. ConfigError naming
+    ``option``."""
     from .errors import ConfigError
 
     p = Path(path)
@@ -57,14 +71,26 @@ def check_output(path: str | os.PathLike, option: str, *, folder: bool = False) 
     if not folder and p.is_dir():
         raise ConfigError(option, str(p), "is a folder; give a file name")
     where = p if folder else p.parent
+    file = next((q for q in (where, *where.parents) if q.exists() and not q.is_dir()), None)
+    if file is not None:
+        raise ConfigError(option, str(p), f"cannot create the folder: {str(file)!r} is a "
+                          "file, not a folder")
+    if create:
+        try:
+            where.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ConfigError(option, str(p), "cannot create the folder: "
+                              f"{exc.strerror or exc}") from None
+    else:
+        where = next(q for q in (where, *where.parents) if q.exists())
+    # try it: os.access says yes to root even on a read-only file system
     try:
-        where.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".rths3d-probe-", dir=where)
     except OSError as exc:
-        file = next((q for q in (where, *where.parents) if q.exists() and not q.is_dir()), None)
-        why = f"{str(file)!r} is a file, not a folder" if file else exc.strerror or str(exc)
-        raise ConfigError(option, str(p), f"cannot create the folder: {why}") from None
-    if not os.access(where, os.W_OK):
-        raise ConfigError(option, str(p), f"folder {str(where)!r} is not writable")
+        raise ConfigError(option, str(p), f"folder {str(where)!r} is not writable "
+                          f"({exc.strerror or exc})") from None
+    os.close(fd)
+    os.unlink(probe)
     return p
 
 

@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -99,6 +99,11 @@ class LoopControl:
     def wait(self) -> None:
         """Block while paused."""
         self._run.wait()
+
+
+Progress = bool | Callable[[float], None]
+"""A progress bar (True) or a callable told the tests' worth of work done since its last
+call (how a sweep shows progress within a batch)."""
 
 
 class _Group:
@@ -172,16 +177,19 @@ class _Group:
 
     # ------------------------------------------------------------------ stepping
     def run(self, control: LoopControl | None, buffers: list[RecordBuffer],
-            progress: bool) -> tuple[int, float, str]:
-        """Step all tests to the end (or until all stopped); returns (steps, wall s, path)."""
+            progress: Progress) -> tuple[int, float, str]:
+        """Step all tests to the end (or until all stopped); returns (steps, wall s, path).
+
+        ``progress``: a bar (True), or a callable told the tests' worth of work done since
+        its last call (a sweep's bar within a batch), every 500 steps."""
         self.transfer.reset()
         self.monitor.reset()
         num_c, tr_c = self.num.compiled(), self.transfer.compiled()
         path = "compiled" if num_c is not None and tr_c is not None else "python"
-        every = control.every if control is not None else \
-            (max(200, self.N // 50) if progress else self.N)
+        report = progress if callable(progress) else None
+        every = control.every if control is not None else (500 if progress else self.N)
         pbar = tqdm(total=self.N, desc=f"{self.base.transfer.kind} ×{self.K}", unit="step",
-                    mininterval=0.5, disable=not progress)
+                    mininterval=0.5, disable=not progress or report is not None)
         self._f = np.zeros((self.K, self.nd))  # F'_m held over the next step
         t0 = time.perf_counter()
         n = 0
@@ -193,6 +201,8 @@ class _Group:
                 done = self._compiled(n, n1, num_c, tr_c) if path == "compiled" else \
                     self._python(n, n1)
                 pbar.update(done)
+                if report is not None:
+                    report(done * self.K / self.N)
                 n += done
                 if not self.monitor.any_active:
                     break
@@ -264,7 +274,7 @@ class _Group:
 
     # ------------------------------------------------------------------ results
     def results(self, buffers: list[RecordBuffer], steps: int, wall: float, path: str,
-                reference: bool | str, progress: bool, numerical: NumericalFactory | None,
+                reference: bool | str, progress: Progress, numerical: NumericalFactory | None,
                 nthread: int) -> list[RunResult]:
         K, N, mon = self.K, self.N, self.monitor
         rtf = steps * self.dt / wall if wall > 0 else math.inf
@@ -306,7 +316,7 @@ def _reference_model(transfer: TransferSystem) -> str:
 
 
 def _run_group(scenes: list[Scene], *, reference: bool | str, nthread: int,
-               control: LoopControl | None, buffers_out: list | None, progress: bool,
+               control: LoopControl | None, buffers_out: list | None, progress: Progress,
                specimen: str, numerical: NumericalFactory | None = None,
                test_ids: Sequence[int] | None = None) -> tuple[list[RunResult], str]:
     """Step K compatible tests together; returns their results and the reference model."""
@@ -348,7 +358,7 @@ def run(scene: Scene, transfer: str | None = None, *, reference: bool = True,
 
 def run_batch(scene: Scene, param_sets: Sequence[Mapping[str, Any]], transfer: str | None = None,
               *, reference: bool = True, max_k: int = 256, nthread: int = 0,
-              progress: bool = False, specimen: str = "auto") -> list[RunResult]:
+              progress: Progress = False, specimen: str = "auto") -> list[RunResult]:
     """Run one test per parameter set, stepping compatible tests together (K at a time).
 
     ``param_sets``: dotted-key overrides per test, e.g. ``[{"numerical.k": 5e3,
@@ -357,8 +367,13 @@ def run_batch(scene: Scene, param_sets: Sequence[Mapping[str, Any]], transfer: s
     its model) are stepped together in groups of up to ``max_k``; every other setting may
     differ test by test. Results come back in the order of ``param_sets``; the references
     are computed afterwards in bigger batches. A bad parameter raises
-    :class:`~rths3d.errors.ConfigError` naming the set's index.
+    :class:`~rths3d.errors.ConfigError` naming the set's index. ``progress``: a bar per
+    group, or a callable told the tests' worth of work done since its last call (a sweep's
+    progress within a batch).
     """
+    if callable(progress) and reference:  # the loop and the reference pass: half each
+        report = progress
+        progress = lambda tests: report(0.5 * tests)  # noqa: E731
     if transfer is not None:
         transfer_class(transfer)
         scene = scene.with_transfer(transfer)
@@ -392,7 +407,7 @@ def run_batch(scene: Scene, param_sets: Sequence[Mapping[str, Any]], transfer: s
 
 
 def _fill_references(scenes: list[Scene], results: list, models: list[str], *, max_k: int,
-                     nthread: int, progress: bool) -> None:
+                     nthread: int, progress: Progress) -> None:
     """Compute z^r for the tests of :func:`run_batch` and write it into their records (the
     ``z_ref.*``/``x_ref.*`` columns, truncated like the record for stopped tests), in groups
     of one time grid, interface, part kind, part model and numerical size."""

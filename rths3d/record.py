@@ -36,6 +36,7 @@ reason) travel in the Parquet schema metadata, or in a ``<file>.meta.json`` besi
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -179,24 +180,31 @@ class Record:
         meta = json.dumps(self.meta, default=_json_default)
         tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
         suffix = path.suffix.lower()
-        if suffix == ".parquet":
-            import pyarrow as pa
-            import pyarrow.parquet as pq
-
-            table = pa.Table.from_pandas(frame, preserve_index=False)
-            md = dict(table.schema.metadata or {})
-            md[_META_KEY] = meta.encode()
-            pq.write_table(table.replace_schema_metadata(md), tmp)
-        elif suffix == ".csv":
-            frame.to_csv(tmp, index=False, float_format="%.17g")
-            side = path.with_name(path.name + ".meta.json")
-            side_tmp = side.with_name(f".{side.name}.tmp{os.getpid()}")
-            side_tmp.write_text(meta)
-            os.replace(side_tmp, side)
-        else:
+        if suffix not in (".parquet", ".csv"):
             raise RecordError(f"record file {str(path)!r}: unknown format {suffix!r} "
                               "(use .parquet or .csv)")
-        os.replace(tmp, path)
+        side = path.with_name(path.name + ".meta.json")
+        side_tmp = side.with_name(f".{side.name}.tmp{os.getpid()}")
+        try:
+            if suffix == ".parquet":
+                import pyarrow as pa
+                import pyarrow.parquet as pq
+
+                table = pa.Table.from_pandas(frame, preserve_index=False)
+                md = dict(table.schema.metadata or {})
+                md[_META_KEY] = meta.encode()
+                pq.write_table(table.replace_schema_metadata(md), tmp)
+            else:
+                frame.to_csv(tmp, index=False, float_format="%.17g")
+                side_tmp.write_text(meta)
+                os.replace(side_tmp, side)
+            os.replace(tmp, path)
+        except BaseException:
+            # a failed write (disk full, folder gone) leaves no partial file behind
+            for t in (tmp, side_tmp):
+                with contextlib.suppress(OSError):
+                    t.unlink(missing_ok=True)
+            raise
         return path
 
     @classmethod
@@ -212,6 +220,9 @@ class Record:
         path = Path(path)
         if not path.exists():
             raise RecordError(f"record file {str(path)!r} does not exist")
+        if path.is_dir():
+            raise RecordError(f"record file {str(path)!r} is a folder, not a record file "
+                              "(.parquet or .csv)")
         suffix = path.suffix.lower()
         meta: dict[str, Any] = {}
         try:

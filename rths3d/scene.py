@@ -87,7 +87,7 @@ def _matrix(field_name: str, value: Any, shape: tuple[int, int] | None = None) -
     try:
         a = np.array(value, dtype=float)
     except (TypeError, ValueError):
-        raise ConfigError(field_name, value, "must be a matrix of numbers") from None
+        raise ConfigError(field_name, value, "must be a number or a matrix of numbers") from None
     if a.ndim == 0:
         a = a.reshape(1, 1)
     if a.ndim != 2:
@@ -133,16 +133,19 @@ def _numerical(raw: Mapping[str, Any], n_if: int, dofs: tuple[str, ...]) -> Nume
                 raise ConfigError(f"numerical.{small if n_if == 1 else big}", None,
                                   "required (mass matrix M / stiffness matrix K)")
         mats[big] = val
-    M = np.array(_matrix("numerical.M", mats["M"]))
+    # errors name the key the user wrote (numerical.k for a scalar k, numerical.K for K)
+    given = {big: f"numerical.{small if small in sec else big}"
+             for big, small in (("M", "m"), ("C", "c"), ("K", "k"))}
+    M = np.array(_matrix(given["M"], mats["M"]))
     n = M.shape[0]
     if M.shape != (n, n):
-        raise ConfigError("numerical.M", mats["M"], "must be square")
-    C = np.array(_matrix("numerical.C", mats["C"])) if np.ndim(mats["C"]) else \
-        np.eye(n) * float(mats["C"]) if n == 1 else np.zeros((n, n))
-    if np.ndim(mats["C"]) == 0 and n > 1 and float(mats["C"]) != 0.0:
-        raise ConfigError("numerical.C", mats["C"], f"must be a {n}×{n} matrix")
-    C = np.array(_matrix("numerical.C", C, (n, n)))
-    K = np.array(_matrix("numerical.K", mats["K"], (n, n)))
+        raise ConfigError(given["M"], mats["M"], "must be square")
+    C = np.array(_matrix(given["C"], mats["C"])) if np.ndim(mats["C"]) else \
+        np.eye(n) * _num(given["C"], mats["C"]) if n == 1 else np.zeros((n, n))
+    if np.ndim(mats["C"]) == 0 and n > 1 and _num(given["C"], mats["C"]) != 0.0:
+        raise ConfigError(given["C"], mats["C"], f"must be a {n}×{n} matrix")
+    C = np.array(_matrix(given["C"], C, (n, n)))
+    K = np.array(_matrix(given["K"], mats["K"], (n, n)))
     label = "m" if n == 1 and "m" in sec else "M"
     if n == 1 and M[0, 0] <= 0:
         raise ConfigError(f"numerical.{label}", float(M[0, 0]), "mass must be > 0 kg")
@@ -407,8 +410,22 @@ def load_scene(path: str | Path, overrides: Sequence[str] | Mapping[str, Any] = 
         raise ConfigError("scene", str(p), f"invalid TOML: {exc}") from None
     except UnicodeDecodeError:
         raise ConfigError("scene", str(p), "not a text TOML file") from None
+    raw = _relative_to(raw, p.parent)
     raw = apply_overrides(raw, overrides)
     return scene_from_dict(raw, name=p.stem, source=str(p))
+
+
+def _relative_to(raw: dict[str, Any], folder: Path) -> dict[str, Any]:
+    """``raw`` with a relative ``excitation.file`` resolved against ``folder`` (the scene
+    file's): a scene names its data beside itself, wherever it is run from. A path given
+    by an override (``--set excitation.file=…``) is the user's, relative to the current
+    folder."""
+    exc = raw.get("excitation")
+    if isinstance(exc, Mapping) and isinstance(exc.get("file"), str) and exc["file"]:
+        f = Path(exc["file"]).expanduser()
+        if not f.is_absolute():
+            raw = {**raw, "excitation": {**exc, "file": str(folder.resolve() / f)}}
+    return raw
 
 
 def scene_to_dict(scene: Scene) -> dict[str, Any]:

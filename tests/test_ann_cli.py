@@ -296,3 +296,21 @@ def test_train_ratings_keep_the_tests_within_the_bench(table, tmp_path) -> None:
               "--features", "3")
     assert bad.returncode == 2 and "--ratings" in bad.stderr
     assert "Traceback" not in bad.stderr and len(bad.stderr.strip().splitlines()) == 1
+
+
+def test_predict_warns_on_a_record_in_mm(model, record, tmp_path) -> None:
+    """`predict` on a record whose displacements are in mm still predicts, with one warning
+    per implausible column naming it (the features would be 1000 times off); none for the
+    record in SI units."""
+    from rths3d.record import Record
+
+    rec = Record.load(record)
+    cols = {k: v * 1e3 if k.startswith(("z_cmd.", "z_meas.", "z_ref.")) else v
+            for k, v in rec.columns.items()}
+    bad = Record(rec.t, cols, dict(rec.meta)).save(tmp_path / "mm.parquet")
+    q = run("predict", str(model), str(bad), "--json")
+    assert q.returncode == 0, q.stderr
+    warned = [ln for ln in q.stderr.splitlines() if "beyond the plausible limit" in ln]
+    assert {ln.split("'")[1] for ln in warned} == {"z_cmd.z", "z_meas.z", "z_ref.z"}
+    ok = run("predict", str(model), str(record), "--json")
+    assert ok.returncode == 0 and "plausible" not in ok.stderr

@@ -39,3 +39,20 @@ def test_help_reflows_a_docstring_paragraph(capsys, monkeypatch):
     """A docstring paragraph wrapped in the source fills the terminal's width."""
     lines = _help(["sweep"], capsys, monkeypatch).splitlines()
     assert any("Resumable:" in ln and "with their reason." in ln for ln in lines)
+
+
+COMMANDS = [["run"], ["metrics"], ["sweep"], ["train"], ["predict"], ["view"], ["diagnose"],
+            ["effects"], ["benchmark", "rths"], ["platform", "track"],
+            ["platform", "identify"], ["platform", "info"]]
+
+
+@pytest.mark.parametrize("argv", COMMANDS, ids=" ".join)
+def test_flags_show_no_value_type(argv, capsys, monkeypatch):
+    """An on/off flag takes no value, so its help shows none (`--json`, not `--json <bool>`);
+    options that take a value keep their type."""
+    text = _help(argv, capsys, monkeypatch)
+    assert "<bool>" not in text
+    flags = [ln for ln in text.splitlines() if re.search(r"--(json|help)\b", ln)]
+    assert flags and all("<" not in ln.split("--")[1].split("  ")[0] for ln in flags)
+    if argv == ["run"]:
+        assert re.search(r"--out\s.*<path>", text)

@@ -438,3 +438,21 @@ def test_within_ratings_checks_every_rating_on_every_row_without_status() -> Non
                          "measure.force_peak": [10.0, np.nan]})
     with pytest.raises(ConfigError, match="1 finished tests have no 'measure.force_peak'"):
         within_ratings(rows, {"velocity": 0.1, "force": 100.0})
+
+
+@pytest.mark.parametrize("patch, message", [
+    ({"grid": {}}, "family 'contact'.grid: {} (is empty"),
+    ({"grid": {}, "sample": {"n": 3}}, "family 'contact'.grid: {} (is empty"),
+    ({"sample": {"n": 3}}, "family 'contact'.sample: {'n': 3} (has no ranges"),
+])
+def test_a_family_that_sweeps_nothing_is_refused(patch, message) -> None:
+    """An empty [family.grid] (or a sample without ranges, or neither) would quietly run one
+    test of the base scene: a ConfigError naming the family instead."""
+    fam = {"name": "contact", "scene": "contact"} | patch
+    with pytest.raises(ConfigError) as err:
+        parse_spec({"sweep": {"name": "t"}, "family": [fam]})
+    assert str(err.value).startswith(message)
+    with pytest.raises(ConfigError, match=r"^family 'contact'\.grid: missing \(the family "
+                                          r"sweeps nothing"):
+        parse_spec({"sweep": {"name": "t"}, "family": [{"name": "contact",
+                                                         "scene": "contact"}]})

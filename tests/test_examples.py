@@ -102,3 +102,22 @@ def test_feature_probe_forward_selection_picks_the_features_the_target_depends_o
     rows = json.loads(out.stdout.strip().splitlines()[-1])["probe"]
     assert [r["set"] for r in rows] == ["e_rel_track", "e_rel_track,fei_d"]
     assert rows[1]["r_test"] > rows[0]["r_test"] and rows[1]["r_test"] > 0.95
+
+
+@pytest.mark.parametrize("script, args, module, extra", [
+    ("51_replay.py", ["--screenshot", "shot.png"], "playwright", "browser"),
+    ("43_feature_probe.py", ["c.parquet"], "sklearn", "probe"),
+])
+def test_missing_optional_dependency_names_the_extra(tmp_path, script, args, module, extra):
+    """Without the optional package (made unimportable, as on a machine without it), one
+    line names it and the extra to install, exit 2, before anything runs or is written."""
+    (tmp_path / "c.parquet").write_text("x")
+    code = (f"import runpy, sys; sys.modules[{module!r}] = None; "
+            f"sys.argv = [{script!r}, *{args!r}]; "
+            f"runpy.run_path({str(EXAMPLES / script)!r}, run_name='__main__')")
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                         text=True, timeout=120)
+    err = out.stderr.strip().splitlines()
+    assert out.returncode == 2 and len(err) == 1, out.stderr
+    assert err[0].startswith("error: ") and f"pip install 'rths3d[{extra}]'" in err[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.parquet"]

@@ -150,3 +150,48 @@ def test_folder_or_binary_file_as_scene_is_a_config_error(tmp_path) -> None:
         load_scene(binary)
     with pytest.raises(ConfigError, match="folder"):
         load_scene(tmp_path)
+
+
+@pytest.mark.parametrize("key, written", [("numerical.k", "k"), ("numerical.c", "c"),
+                                          ("numerical.m", "m")])
+def test_bad_scalar_is_named_as_written(key, written):
+    """`--set numerical.k=abc` names numerical.k (the key the user wrote), not numerical.K."""
+    with pytest.raises(ConfigError) as err:
+        load_scene(SCENES / "paper_contact.toml", [f"{key}=abc"])
+    assert err.value.field == f"numerical.{written}" and err.value.value == "abc"
+    assert "must be a number" in str(err.value)
+
+
+def test_excitation_file_is_relative_to_the_scene(tmp_path):
+    """A scene's excitation.file is read beside the scene, whatever the current folder: the
+    run from another folder applies the CSV's force (f_ext equals the history written
+    here, linearly interpolated); a --set path is relative to the current folder."""
+    import numpy as np
+
+    from rths3d.record import Record
+
+    scene_dir, elsewhere = tmp_path / "scenes", tmp_path / "elsewhere"
+    scene_dir.mkdir()
+    elsewhere.mkdir()
+    t = np.linspace(0.0, 1.0, 11)
+    force = 15.0 * np.sin(2 * np.pi * 1.5 * t)
+    (scene_dir / "push.csv").write_text("t,value\n" + "".join(
+        f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, force, strict=True)))
+    text = (SCENES / "paper_linear.toml").read_text().replace(
+        'signal = "sine"', 'signal = "file"\nfile = "push.csv"').replace(
+        "duration = 10.0", "duration = 1.0")
+    (scene_dir / "pushed.toml").write_text(text)
+    out = tmp_path / "rec.parquet"
+    p = subprocess.run([sys.executable, "-m", "rths3d", "run", str(scene_dir / "pushed.toml"),
+                        "-t", "ideal", "--no-reference", "--json", "--out", str(out)],
+                       cwd=elsewhere, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    rec = Record.load(out)
+    np.testing.assert_allclose(rec.columns["f_ext.z"], np.interp(rec.t, t, force),
+                               atol=1e-9)
+    # a path given on the command line is the user's: relative to the current folder
+    with pytest.raises(ConfigError, match="excitation.file"):
+        from rths3d.loop import run
+
+        sc = load_scene(scene_dir / "pushed.toml", ["excitation.file='push.csv'"])
+        run(sc, "ideal", reference=False)

@@ -437,6 +437,95 @@ def test_cli_reports_errors_apart_and_exits_1(tmp_path, capsys) -> None:
                  + "[[family]]" + FRAGILE.split("[[family]]")[2])
     with pytest.raises(SystemExit) as exc:
         main(["sweep", str(p), "--out", str(tmp_path / "out"), "--workers", "1", "--quiet"])
-    out = capsys.readouterr().out
+    out, err = capsys.readouterr()
     assert exc.value.code == 1 and "1 ok, 0 stopped, 1 error" in out
+    # the reason is on the console, not only in the table
+    assert err.strip() == ("error: parameter set 0: numerical.m: -1.0 (mass must be > 0 kg)")
     assert (tmp_path / "out" / "fragile.parquet").is_file()
+
+
+def test_cli_sweep_whose_every_test_is_refused_is_one_error_line(tmp_path) -> None:
+    """When validation refuses every test, nothing ran: one line with the count and the
+    first reason, exit 2 (the table with the reasons is still written)."""
+    p = tmp_path / "refused.toml"
+    p.write_text(TINY.replace('"numerical.m" = [4.81, 9.62]', '"numerical.m" = [-4.81, -9.62]'))
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, "-m", "rths3d", "sweep", str(p), "--out", str(out),
+                        "--workers", "1", "--quiet"], capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr.strip().splitlines() == [r.stderr.strip()]
+    assert r.stderr.startswith("error: sweep: 'tiny' (all 8 tests refused; first reason: ")
+    assert "numerical.m: -" in r.stderr and "(mass must be > 0 kg)" in r.stderr
+    assert set(pd.read_parquet(out / "tiny.parquet")["status"]) == {"error"}
+
+
+def _alive_in_session(sid: int) -> list[tuple[int, str]]:
+    """Live processes (no zombies) of session ``sid``, with their command lines."""
+    found = []
+    for d in os.listdir("/proc"):
+        if not d.isdigit():
+            continue
+        try:
+            with open(f"/proc/{d}/stat") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+            with open(f"/proc/{d}/cmdline", "rb") as f:
+                cmd = f.read().replace(b"\0", b" ").decode(errors="replace")
+        except OSError:
+            continue
+        if int(fields[3]) == sid and fields[0] != "Z":
+            found.append((int(d), cmd))
+    return found
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc"), reason="reads /proc")
+def test_kill_9_of_a_pool_sweep_leaves_nothing_running(tiny_spec, reference_table,
+                                                       tmp_path) -> None:
+    """`kill -9` of the sweep process alone (not its group), mid-way with 2 workers: within
+    5 s no process it started is left (workers, forkserver, resource tracker); the restart
+    finishes and its table equals the uninterrupted run's."""
+    out = tmp_path / "killed"
+    cmd = [sys.executable, "-m", "rths3d", "sweep", str(tiny_spec), "--out", str(out),
+           "--workers", "2", "--quiet"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    try:
+        deadline = time.time() + 120
+        # mid-way: the workers are up (the sweep process, forkserver, tracker, 2 workers)
+        while time.time() < deadline and proc.poll() is None \
+                and len(_alive_in_session(proc.pid)) < 5:
+            time.sleep(0.05)
+        assert proc.poll() is None, "the sweep finished before it could be killed"
+        assert not (out / "tiny.parquet").exists()
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait()
+        killed_at = time.time()
+        while _alive_in_session(proc.pid) and time.time() < killed_at + 5:
+            time.sleep(0.05)
+        left = _alive_in_session(proc.pid)
+    finally:
+        for pid, _ in _alive_in_session(proc.pid):
+            os.kill(pid, signal.SIGKILL)
+    assert left == [], left
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    resumed = pd.read_parquet(out / "tiny.parquet")
+    assert resumed["test_id"].is_unique
+    pd.testing.assert_frame_equal(_sorted(resumed), _sorted(reference_table))
+
+
+def test_progress_moves_within_a_batch(tiny_spec) -> None:
+    """A batch reports its progress while it runs (the loop and the reference pass, by
+    simulated time), in tests' worth of work adding up to the batch's size."""
+    from rths3d.dataset.execute import _rows_reporting, batches_of, prepare
+    from rths3d.dataset.runner import run_rows
+
+    spec = prepare(load_spec(tiny_spec))
+    _, tests = batches_of(spec)[0]
+    reports: list[float] = []
+    rows = _rows_reporting(run_rows, spec, tests, None, reports.append)
+    assert len(rows) == len(tests)
+    # 1 s tests at 1 ms: every 500 steps, two passes (loop and reference), plus the top-up
+    assert len(reports) >= 4 and sum(reports[:-1]) > 0.5 * len(tests)
+    assert sum(reports) == pytest.approx(len(tests))
+    assert all(x > 0 for x in reports)

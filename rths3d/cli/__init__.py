@@ -39,7 +39,10 @@ def version() -> None:
 
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``rths3d`` console script."""
-    from typer._click.exceptions import ClickException  # typer vendors click
+    try:
+        from typer._click.exceptions import ClickException  # newer typer vendors click
+    except ImportError:  # pragma: no cover - older typer uses click itself
+        from click.exceptions import ClickException
 
     from ..errors import RthsError
 
@@ -51,7 +54,11 @@ def main(argv: list[str] | None = None) -> None:
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
     except ClickException as exc:
-        exc.show()
+        # one line, like every other user mistake (click would add usage and a blank line)
+        ctx = getattr(exc, "ctx", None)
+        hint = f" (see '{ctx.command_path} --help')" if ctx is not None else ""
+        message = " ".join(exc.format_message().split())
+        print(f"error: {message}{hint}", file=sys.stderr)
         sys.exit(exc.exit_code)
     except RthsError as exc:
         print(f"error: {exc}", file=sys.stderr)

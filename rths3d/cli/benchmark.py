@@ -9,6 +9,7 @@ from typing import Any
 import typer
 
 from ._app import app, json_line
+from ._output import Keeper
 
 bench_app = typer.Typer(help="Community benchmarks reproduced with rths3d.", no_args_is_help=True)
 app.add_typer(bench_app, name="benchmark")
@@ -67,12 +68,9 @@ def rths(
     """
     from dataclasses import replace
 
-    import numpy as np
-
     from ..errors import ConfigError
-    from ..rthsbench import PUBLISHED_TABLE3, BenchmarkConfig, load_excitation, run_case, run_trials
-    from ..rthsbench.scene import config_from_dict, load_benchmark_scene
 
+    # the cheap checks before the benchmark's (scipy) imports
     if case not in (0, 1, 2, 3, 4):
         raise ConfigError("--case", case, "must be 1, 2, 3 or 4 (0 for all)")
     comp_names, comp_params = _compensator_args(compensator, comp_set)
@@ -80,6 +78,10 @@ def rths(
         trials = 20 if compensator else 0
     if trials < 0:
         raise ConfigError("--trials", trials, "must be ≥ 0")
+    import numpy as np
+
+    from ..rthsbench import PUBLISHED_TABLE3, BenchmarkConfig, load_excitation, run_case, run_trials
+    from ..rthsbench.scene import config_from_dict, load_benchmark_scene
     if plot:
         from ..figures import check_output, png_path
 
@@ -173,26 +175,34 @@ def rths(
                     entry["compensators"][name] = _compensated_entry(rs, bench_trials.get(c))
                     prog.advance(task)
             out["cases"][str(c)] = entry
+    keeper = Keeper()
     if plot:
         from ..rthsbench.plots import plot_compensator, plot_result, plot_trials
 
         if comp_first is not None and len(comp_names) == 1:
-            out["plot"] = str(plot_result(comp_first, plot_path))
+            out["plot"] = str(keeper.write(lambda p: plot_result(comp_first, p), plot_path,
+                                           "--plot"))
             coef_path = plot_path.with_name(plot_path.stem + "_compensator" + plot_path.suffix)
-            out["plot_compensator"] = str(plot_compensator(comp_first, first, coef_path))
+            out["plot_compensator"] = str(keeper.write(
+                lambda p: plot_compensator(comp_first, first, p), coef_path, "--plot"))
         else:
-            out["plot"] = str(plot_result(first, plot_path))
+            out["plot"] = str(keeper.write(lambda p: plot_result(first, p), plot_path,
+                                           "--plot"))
         if trial_rows:
-            out["plot_trials"] = str(plot_trials(
-                trial_rows, trials_path, PUBLISHED_TABLE3 if published_applies else None))
+            out["plot_trials"] = str(keeper.write(
+                lambda p: plot_trials(trial_rows, p,
+                                      PUBLISHED_TABLE3 if published_applies else None),
+                trials_path, "--plot"))
     if as_json:
         typer.echo(json_line(out))
+        keeper.finish()
         return
     if comp_names:
         _print_compensated(out, base, intensity, noise, force_delay, convention, trials)
         if not published_applies:
             typer.echo("(the paper publishes Table 3 only for El Centro × 0.4, nominal plant, "
                        "noise on)")
+        keeper.finish()
         return
     head = "case  row        " + "".join(k.rjust(7) for k in J_KEYS)
     typer.echo(f"RTHS benchmark: {base.excitation} × {intensity}, noise "
@@ -228,6 +238,7 @@ def rths(
     if not published_applies:
         typer.echo("(the paper publishes Table 3 only for El Centro × 0.4, nominal plant, "
                    "noise on)")
+    keeper.finish()
 
 
 def _overrides_only(items: list[str]) -> dict:

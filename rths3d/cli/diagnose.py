@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from ._app import app, json_line
+from ._output import Keeper
 
 
 @app.command()
@@ -45,6 +46,7 @@ def diagnose(
             raise ConfigError("--add", a, f"effect {name!r} given twice")
     if report is not None:
         check_output(report, "--report", folder=True)
+    keeper = Keeper()
     rec, channels, warns = load_measurement(measurement)
     bench, kind = resolve_scene(scene, rec.meta)
     diag = Diagnosis(rec, bench, model=kind, top_k=top_k)
@@ -56,7 +58,9 @@ def diagnose(
     if report is not None:
         from ..diagnose.report import write_report
 
-        report_path = write_report(diag, result, report, warns, first_round=rounds[0])
+        report_path = keeper.write(
+            lambda d: write_report(diag, result, d, warns, first_round=rounds[0]), report,
+            "--report", folder=True)
     if json_out:
         payload = result.as_dict()
         payload["waterfall"] = diag.waterfall
@@ -70,6 +74,7 @@ def diagnose(
         payload["localisation"] = {"fei": loc["fei"], "contact": loc["contact"]}
 
         typer.echo(json_line(payload))
+        keeper.finish()
         return
     from rich.console import Console
     from rich.table import Table
@@ -105,6 +110,7 @@ def diagnose(
                   f"{w['error_val']:.3f}")
     if report_path:
         con.print(f"report: {report_path}")
+    keeper.finish()
 
 
 @app.command()

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import typer
 
-from ._app import app, json_line
+from ._app import app, json_line, warn_implausible
+from ._output import Keeper, check_folder
 
 # measure key → (symbol, unit) for the readable table
 _LABELS: dict[str, tuple[str, str]] = {
@@ -51,18 +52,24 @@ def metrics(
     from ..record import Record
 
     rec = Record.load(record)
+    warn_implausible(rec, record)
+    if plot is not None:
+        check_folder(plot, "--plot")
+    keeper = Keeper()
     result = compute_measures(rec)
     paths = []
     if plot is not None:
         from ..metrics.plots import plot_record
 
-        paths = plot_record(rec, plot)
+        paths = keeper.write(lambda d: plot_record(rec, d), plot, "--plot", folder=True)
     if as_json:
         typer.echo(json_line(result))
+        keeper.finish()
         return
     _table(rec, result, record)
     for p in paths:
         typer.echo(f"wrote {p}")
+    keeper.finish()
 
 
 def _fmt(v) -> str:

@@ -14,6 +14,7 @@ import typer
 
 from ..figures import check_output, new_figure, png_path, save_figure
 from ._app import app
+from ._output import Keeper, write_text
 
 platform_app = typer.Typer(
     name="platform",
@@ -113,8 +114,14 @@ def track(
     rec.meta["scene"] = f"platform sine {dof}"
     rec.meta["params"] = {"dof": dof, "amplitude": amplitude, "frequency": frequency,
                           "duration": duration, "payload_mass": payload_mass}
-    rec_path = rec.save(out / "track.parquet")
+    keeper = Keeper()  # what --out refuses now is kept in a temporary folder
+
+    def write(fn):
+        return keeper.write(fn, out, "--out", folder=True)
+
+    rec_path = write(lambda d: rec.save(d / "track.parquet"))
     if rec.meta["status"] != "ok":
+        keeper.finish()
         typer.echo(f"stopped: {rec.meta['reason']} (partial record: {rec_path})", err=True)
         raise typer.Exit(2)
     skip = min(max(ramp, 1.0 / frequency), 0.5 * duration)
@@ -124,12 +131,13 @@ def track(
              f"{'with' if velocity_ff else 'without'} velocity FF: delay "
              f"{fig.delay * 1e3:.2f} ms (predicted {fig.predicted_delay * 1e3:.2f} ms), "
              f"NRMS {100 * fig.nrms_error:.2f} %")
-    png = plot_tracking(rec, dof, out / "track.png", title)
+    png = write(lambda d: plot_tracking(rec, dof, d / "track.png", title))
     figures = fig.as_dict()
     figures.update({"plot": str(png), "record": str(rec_path)})
-    (out / "figures.json").write_text(json.dumps(figures, indent=1))
+    write(lambda d: write_text(d / "figures.json", json.dumps(figures, indent=1)))
     if as_json:
         typer.echo(json.dumps(figures))
+        keeper.finish()
         return
     typer.echo(f"delay            {fig.delay * 1e3:8.3f} ms  (settings predict "
                f"{fig.predicted_delay * 1e3:.3f} ms)")
@@ -140,13 +148,17 @@ def track(
     typer.echo(f"equality gap     {fig.max_eq_gap * 1e6:8.3f} µm (max)")
     typer.echo(f"plot             {png}")
     typer.echo(f"record           {rec_path}")
+    keeper.finish()
 
 
 @platform_app.command()
 def identify(
     out: str = typer.Option(None, help="TF file to write, or a folder to write "
-                                       "platform_heave_tf.json in (default: the repository's "
-                                       "assets/platform_heave_tf.json)."),
+                                       "platform_heave_tf.json in (default: "
+                                       "platform_heave_tf.json in the current folder; the "
+                                       "LTI transfer system reads the repository's "
+                                       "assets/platform_heave_tf.json, which only an explicit "
+                                       "--out replaces)."),
     plot: Path = typer.Option(None, help="Bode plot PNG (default: beside the TF file)."),
     n_num: int = typer.Option(1, help="Numerator order of the fitted TF."),
     n_den: int = typer.Option(2, help="Denominator order of the fitted TF."),
@@ -165,17 +177,20 @@ def identify(
 
     if n_num < 0 or n_den < 1 or n_num > n_den:
         raise ConfigError("--n-num/--n-den", (n_num, n_den), "need 0 <= n_num <= n_den, n_den >= 1")
-    tf_path = Path(out) if out else DEFAULT_TF_PATH
+    # by default into the current folder: the repository's own file is replaced only when
+    # --out names it
+    tf_path = Path(out) if out else Path(DEFAULT_TF_PATH.name)
     if out and (tf_path.is_dir() or out.endswith(("/", os.sep))):
         tf_path = tf_path / DEFAULT_TF_PATH.name
     check_output(tf_path, "--out")
     png_out = png_path(plot or tf_path.with_name(tf_path.stem.replace("_tf", "") + "_bode.png"))
     check_output(png_out, "--plot")
+    keeper = Keeper()
     cfg = _config(kp, kv, timeconst, delay, velocity_ff, substeps)
     kw = {"f_min": 0.2, "period": 5.0, "n_lines": 20} if quick else {}
     res = identify_heave(cfg, n_num=n_num, n_den=n_den, progress=True, **kw)
-    path = res.save(tf_path)
-    png = res.bode_plot(png_out)
+    path = keeper.write(res.save, tf_path, "--out")
+    png = keeper.write(res.bode_plot, png_out, "--plot")
     tf = res.tf
     typer.echo(f"num   {list(tf.num)}")
     typer.echo(f"den   {list(tf.den)}")
@@ -185,6 +200,7 @@ def identify(
         typer.echo(f"  {label:<16s} fit error {100 * err:.2f} %")
     typer.echo(f"TF file {path}")
     typer.echo(f"Bode plot {png}")
+    keeper.finish()
 
 
 @platform_app.command()

@@ -12,6 +12,9 @@ import typer
 
 from ..figures import new_figure, save_figure
 from ._app import app, json_line
+from ._output import Keeper, check_file, check_folder
+
+RECORD_SUFFIXES = (".parquet", ".csv")
 
 
 def _plot(record, path: Path) -> Path:
@@ -107,16 +110,25 @@ def run(
 
     if transfer is not None and transfer not in transfer_kinds():
         raise ConfigError("--transfer", transfer, f"must be one of {', '.join(transfer_kinds())}")
-    if out is not None and out.suffix.lower() not in (".parquet", ".csv"):
+    if out is not None and out.suffix.lower() not in RECORD_SUFFIXES:
         raise ConfigError("--out", str(out), "must end in .parquet or .csv")
     sc = load_scene(scene, set_)
+    # the outputs are checked before the test runs, not after
+    if out is not None:
+        check_file(out, "--out", RECORD_SUFFIXES)
+    if plot is not None:
+        check_folder(plot, "--plot")
+    keeper = Keeper()
     # Ctrl-C stops the test like the bench's stop button: the partial record is kept (and
     # written with --out); a second Ctrl-C interrupts as usual. Without pacing, checked
     # every 200 steps (0.2 s of a 1 kHz test), which costs the loop < 1 %
     control = LoopControl(realtime=realtime, every=20 if realtime else 200)
     with _stop_on_sigint(control):
         res = run_loop(sc, transfer, reference=not no_reference, control=control,
-                       progress=not json_, out=str(out) if out else None)
+                       progress=not json_)
+    if out is not None:
+        # a record the target refuses now is kept in a temporary folder (the error says where)
+        res.out = str(keeper.write(res.record.save, out, "--out"))
     measures: dict = {}
     try:
         from ..metrics import compute_measures
@@ -131,7 +143,8 @@ def run(
     plot_path = None
     if plot is not None:
         name = f"{res.record.meta.get('scene', 'run')}_{res.record.meta.get('transfer', '')}.png"
-        plot_path = str(_plot(res.record, Path(plot) / name))
+        plot_path = str(keeper.write(lambda d: _plot(res.record, d / name), plot, "--plot",
+                                     folder=True))
 
     def num(key: str):
         v = measures.get(key)
@@ -154,6 +167,7 @@ def run(
     }
     if json_:
         typer.echo(json_line(summary))
+        keeper.finish()
         return
     typer.echo(f"{sc.name} with transfer '{summary['transfer']}': {res.status}"
                + (f" — {res.reason}" if res.reason else ""))
@@ -166,3 +180,4 @@ def run(
         typer.echo(f"  record       → {res.out}")
     if plot_path:
         typer.echo(f"  plot         → {plot_path}")
+    keeper.finish()

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import typer
 
-from ._app import app, json_line
+from ..figures import png_path
+from ._app import app, json_line, warn_implausible
+from ._output import Keeper, check_file
 
 
 def _med_worst(values: list[float]) -> dict[str, float]:
@@ -15,22 +16,6 @@ def _med_worst(values: list[float]) -> dict[str, float]:
 
     v = np.asarray(values, dtype=float)
     return {"median": float(np.median(v)), "worst": float(np.min(v))}
-
-
-def _check_writable(path: Path, field: str) -> None:
-    """Fail before the training (minutes to hours) instead of after it on a target that
-    cannot be written. Missing folders are fine: they are created when writing."""
-    from ..errors import ConfigError
-
-    if path.is_dir():
-        raise ConfigError(field, str(path), "is a folder, give a file name")
-    parent = path.parent
-    while not parent.exists():
-        parent = parent.parent
-    if not parent.is_dir():
-        raise ConfigError(field, str(path), f"{parent} is not a folder")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise ConfigError(field, str(path), f"folder {parent} is not writable")
 
 
 @app.command()
@@ -75,16 +60,18 @@ def train(
     """
     import warnings
 
-    from ..ann import FidelityANN, parse_topologies
     from ..dataset.store import join_tables, read_table
     from ..dataset.table import PARAM, parse_features, parse_ratings, training_data, within_ratings
     from ..errors import ConfigError
 
+    if transform not in ("log", "linear"):
+        raise ConfigError("--transform", transform, "must be log or linear")
     chosen = parse_features(features)
     limits = parse_ratings(ratings) if ratings is not None else {}
-    _check_writable(out, "--out")
+    check_file(out, "--out")
     if plot:
-        _check_writable(plot, "--plot")
+        check_file(png_path(plot), "--plot")
+    keeper = Keeper()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UserWarning)
         frame = join_tables([read_table(t) for t in tables])
@@ -96,19 +83,19 @@ def train(
                                 extra=extra or ())
     if len(y) < 10:
         raise ConfigError("table", f"{len(y)} usable rows", "need at least 10 finished tests")
+    from ..ann import FidelityANN, parse_topologies  # torch: after the cheap checks
+
     model = FidelityANN(topologies=parse_topologies(topologies), n_trainings=trainings,
                         seed=seed, transform=transform, bypass=bypass)
     model.target_name = target
     model.fit(X, y, progress=not as_json)
-    try:
-        model.save(out)
-    except ConfigError as exc:
-        raise ConfigError("--out", str(out), exc.limit) from exc
+    # a model the target refuses now is kept in a temporary folder (the error says where)
+    saved = keeper.write(model.save, out, "--out")
     sc = model.scores(X, y)
     res = {"r_train": sc["r_train"], "r_val": sc["r_val"], "r_test": sc["r_test"],
            "mse": sc["mse"], "mse_test": sc["mse_test"], "topology": sc["topology"],
            "n_samples": int(len(y)),
-           "features": chosen if isinstance(chosen, int) else list(chosen), "model": str(out),
+           "features": chosen if isinstance(chosen, int) else list(chosen), "model": str(saved),
            "extra": [c for c in X.columns if c.startswith(PARAM)],
            "r_test_members": _med_worst(sc["members_r_test"]),
            "r_train_members": _med_worst(sc["members_r_train"]),
@@ -121,19 +108,18 @@ def train(
         title = (f"feature set {chosen}" if isinstance(chosen, int)
                  else f"features {', '.join(chosen)}")
         tr, te = model.indices["train"], model.indices["test"]
-        try:
-            save_figures(plot, {"training": (y[tr], mean[tr]), "test": (y[te], mean[te])},
-                         spread={"test": std[te]}, title=title)
-        except OSError as exc:
-            raise ConfigError("--plot", str(plot),
-                              f"cannot write the plot: {exc.strerror or exc}") from exc
+        keeper.write(lambda p: save_figures(p, {"training": (y[tr], mean[tr]),
+                                                "test": (y[te], mean[te])},
+                                            spread={"test": std[te]}, title=title),
+                     png_path(plot), "--plot")
     if as_json:
         typer.echo(json_line(res))
     else:
         typer.echo(f"topology {'x'.join(map(str, res['topology']))}  "
                    f"ρ train {res['r_train']:.4f}  val {res['r_val']:.4f}  "
                    f"test {res['r_test']:.4f}  MSE {res['mse']:.3g}  "
-                   f"({len(y)} tests) → {out}")
+                   f"({len(y)} tests) → {saved}")
+    keeper.finish()
 
 
 @app.command()
@@ -147,19 +133,24 @@ def predict(
 
     import numpy as np
 
-    from ..ann import ExtrapolationWarning, FidelityANN, NonFiniteInputWarning, pearson_rho
     from ..dataset.store import read_table
     from ..dataset.table import FEATURE, PARAM, TARGET, input_column
     from ..errors import ConfigError
 
-    net = FidelityANN.load(model)
+    if not model.is_file():  # the cheap checks before torch is imported
+        raise ConfigError("model", str(model), "file does not exist" if not model.exists()
+                          else "is a folder, not a model file")
     frame = read_table(data)
+    from ..ann import ExtrapolationWarning, FidelityANN, NonFiniteInputWarning, pearson_rho
+
+    net = FidelityANN.load(model)
     not_scalar: dict[str, tuple[int, ...]] = {}
     if "t" in frame.columns and not any(c.startswith(FEATURE) for c in frame.columns):
         from ..dataset.runner import record_features
         from ..record import Record
 
         rec = Record.load(data)
+        warn_implausible(rec, data)
         status = rec.meta.get("status")
         if status not in (None, "ok"):
             typer.echo(f"warning: the record's status is {status!r} "

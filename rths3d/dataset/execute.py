@@ -12,13 +12,16 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import inspect
 import itertools
 import os
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from .._lifeline import worker_init
 from ..errors import ConfigError
 from .runner import THREADS_ENV
 from .spec import SweepSpec, batch_group_key
@@ -133,6 +136,8 @@ def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = 
         raise ConfigError("workers", workers, "must be >= 1")
     rows_fn = rows_fn or run_rows
     spec = prepare(spec)
+    if scheduler:
+        _probe_scheduler(scheduler)
     all_batches = batches_of(spec)
     store = SweepStore(out, spec.name, spec.digest(), spec.batch_size,
                        sum(len(t) for _, t in all_batches), scene_hashes(spec)).open()
@@ -144,33 +149,41 @@ def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = 
     n_total = store.n_tests
     n_done = sum(len(t) for bid, t in all_batches if bid in done)
     bar = None
-    fails = 0
+    counts = {"stopped": 0, "error": 0}
     if progress:
         from tqdm import tqdm
 
+        # the bar moves within a batch too (by simulated time), so it counts fractions
         bar = tqdm(total=n_total, initial=n_done, desc=f"sweep {spec.name}", unit="test",
-                   dynamic_ncols=True)
+                   dynamic_ncols=True,
+                   bar_format="{l_bar}{bar}| {n:.0f}/{total_fmt} [{elapsed}<{remaining}, "
+                              "{rate_fmt}{postfix}]")
+
+    def advance(tests: float) -> None:
+        if bar is not None:
+            bar.update(tests)
 
     def finished(bid: str, rows: list[dict[str, Any]]) -> None:
-        nonlocal fails
         store.write_part(bid, rows)
-        fails += sum(1 for r in rows if r.get("status") != "ok")
+        for r in rows:
+            if r.get("status") in counts:
+                counts[r["status"]] += 1
         if bar is not None:
-            bar.update(len(rows))
-            bar.set_postfix(failed=fails)
+            # the names of the closing summary: a stopped test is not an error
+            bar.set_postfix(counts, refresh=False)
 
     try:
         if not todo:
             pass
         elif scheduler:
-            _run_dask(spec, todo, scheduler, rec_dir, rows_fn, finished)
+            _run_dask(spec, todo, scheduler, rec_dir, rows_fn, finished, advance)
         else:
             n = workers if workers is not None else (os.cpu_count() or 1)
             if n == 1 or len(todo) == 1:
                 for bid, tests in todo:
-                    finished(bid, rows_fn(spec, tests, rec_dir))
+                    finished(bid, _rows_reporting(rows_fn, spec, tests, rec_dir, advance))
             else:
-                _run_pool(spec, todo, n, rec_dir, rows_fn, finished)
+                _run_pool(spec, todo, n, rec_dir, rows_fn, finished, bar)
     finally:
         if bar is not None:
             bar.close()
@@ -182,46 +195,102 @@ def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = 
     return None
 
 
-def _run_pool(spec, todo, n, rec_dir, rows_fn, finished) -> None:
+def _rows_reporting(rows_fn: RowsFn, spec: SweepSpec, tests: list[dict[str, Any]],
+                    rec_dir: str | None, report: Callable[[float], None]
+                    ) -> list[dict[str, Any]]:
+    """``rows_fn`` on one batch, reporting its progress in tests (fractions within the
+    batch, when ``rows_fn`` takes a ``progress`` callback); exactly ``len(tests)`` in all
+    once it has finished."""
+    done = 0.0
+
+    def step(x: float) -> None:
+        nonlocal done
+        x = min(float(x), len(tests) - done)
+        if x > 0:
+            done += x
+            report(x)
+
+    if "progress" in inspect.signature(rows_fn).parameters:
+        rows = rows_fn(spec, tests, rec_dir, progress=step)
+    else:
+        rows = rows_fn(spec, tests, rec_dir)
+    step(len(tests) - done)
+    return rows
+
+
+# In a worker process: the sweep's shared progress counter (tests' worth of work done).
+_worker_progress: Any = None
+
+
+def _add_progress(x: float) -> None:
+    with _worker_progress.get_lock():
+        _worker_progress.value += x
+
+
+def _rows_in_worker(rows_fn: RowsFn, spec: SweepSpec, tests: list[dict[str, Any]],
+                    rec_dir: str | None) -> list[dict[str, Any]]:
+    return _rows_reporting(rows_fn, spec, tests, rec_dir, _add_progress)
+
+
+def _run_pool(spec, todo, n, rec_dir, rows_fn, finished, bar) -> None:
     import multiprocessing as mp
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
     # forkserver: workers start from a clean process (no inherited threads of MuJoCo/torch)
     ctx = mp.get_context("forkserver")
-    with ProcessPoolExecutor(max_workers=n, mp_context=ctx,
-                             initializer=_worker_init) as pool:
-        pending = {}
-        it = iter(todo)
-        # keep at most 2 batches per worker in flight so finished ones are written promptly
-        for bid, tests in it:
-            pending[pool.submit(rows_fn, spec, tests, rec_dir)] = bid
-            if len(pending) >= 2 * n:
-                break
-        error: BaseException | None = None
-        while pending:
-            ready, _ = wait(pending, return_when=FIRST_COMPLETED)
-            for fut in ready:
-                bid = pending.pop(fut)
-                if fut.cancelled():
-                    continue
-                if fut.exception() is not None:
-                    if error is None:
-                        # stop submitting; the batches under way still finish and are kept
-                        error = fut.exception()
-                        for other in pending:
-                            other.cancel()
-                    continue
-                finished(bid, fut.result())
-                nxt = next(it, None) if error is None else None
-                if nxt is not None:
-                    pending[pool.submit(rows_fn, spec, nxt[1], rec_dir)] = nxt[0]
-        if error is not None:
-            raise error
+    done = ctx.Value("d", 0.0)  # tests' worth of work the workers have done
+    start = bar.n if bar is not None else 0.0
+    # Lifeline: only this process holds the pipe's write end. Each worker watches the read
+    # end; EOF means this process has gone (even by SIGKILL), and the worker exits, so that
+    # nothing is left running: with the workers gone, the forkserver and the resource
+    # tracker end too.
+    lifeline_r, lifeline_w = ctx.Pipe(duplex=False)
+    try:
+        with ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=worker_init,
+                                 initargs=(lifeline_r, done)) as pool:
+            pending = {}
+            it = iter(todo)
+            # keep at most 2 batches per worker in flight so finished ones are written
+            # promptly
+            for bid, tests in it:
+                pending[pool.submit(_rows_in_worker, rows_fn, spec, tests, rec_dir)] = bid
+                if len(pending) >= 2 * n:
+                    break
+            error: BaseException | None = None
+            while pending:
+                ready, _ = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+                if bar is not None:
+                    bar.n = start + done.value
+                    bar.refresh()
+                for fut in ready:
+                    bid = pending.pop(fut)
+                    if fut.cancelled():
+                        continue
+                    if fut.exception() is not None:
+                        if error is None:
+                            # stop submitting; the batches under way still finish and are kept
+                            error = fut.exception()
+                            for other in pending:
+                                other.cancel()
+                        continue
+                    finished(bid, fut.result())
+                    nxt = next(it, None) if error is None else None
+                    if nxt is not None:
+                        pending[pool.submit(_rows_in_worker, rows_fn, spec, nxt[1],
+                                            rec_dir)] = nxt[0]
+            if error is not None:
+                raise error
+    finally:
+        lifeline_w.close()
+        lifeline_r.close()
 
 
-def _worker_init() -> None:
+def worker_setup(progress=None) -> None:
+    """The rest of a pool worker's start (after :func:`rths3d._lifeline.worker_init` has
+    bound its life to the sweep's): one core per worker, the shared progress counter."""
     # One core per worker process: the parallelism is across processes (MuJoCo batches too:
     # two 2-thread batches on 2 cores thrash, one thread each does not).
+    global _worker_progress
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     os.environ.setdefault(THREADS_ENV, "1")
     try:
@@ -230,9 +299,48 @@ def _worker_init() -> None:
         torch.set_num_threads(1)
     except ImportError:  # pragma: no cover - torch is a dependency
         pass
+    _worker_progress = progress
 
 
-def _run_dask(spec, todo, scheduler, rec_dir, rows_fn, finished) -> None:
+SCHEDULER_TIMEOUT = 10.0
+"""Seconds a Dask scheduler has to answer (connection and handshake)."""
+
+
+def _probe_scheduler(address: str, timeout: float = SCHEDULER_TIMEOUT) -> None:
+    """ConfigError unless a Dask scheduler answers at ``address`` within ``timeout`` s.
+
+    distributed's own connect waits forever for the handshake of a server that accepts the
+    connection but is not a Dask scheduler (its timeout covers the connection only), so the
+    whole exchange runs under one deadline, in a thread of its own (the caller may have an
+    event loop running)."""
+    import asyncio
+
+    try:
+        from distributed.comm import connect
+    except ImportError as exc:  # pragma: no cover - dask[distributed] is a dependency
+        raise ConfigError("scheduler", address, "needs dask[distributed] installed") from exc
+    failed: list[BaseException] = []
+
+    async def handshake() -> None:
+        comm = await asyncio.wait_for(connect(address, timeout=timeout), timeout)
+        await comm.close()
+
+    def probe() -> None:
+        try:
+            asyncio.run(handshake())
+        except BaseException as exc:  # noqa: BLE001 - reported below as one line
+            failed.append(exc)
+
+    worker = threading.Thread(target=probe, name="rths3d-scheduler-probe", daemon=True)
+    worker.start()
+    worker.join(timeout + 5.0)
+    if worker.is_alive() or failed:
+        why = (f"no answer within {timeout:g} s" if worker.is_alive() or
+               isinstance(failed[0], TimeoutError) else str(failed[0]) or type(failed[0]).__name__)
+        raise ConfigError("scheduler", address, f"no Dask scheduler answers there ({why})")
+
+
+def _run_dask(spec, todo, scheduler, rec_dir, rows_fn, finished, advance) -> None:
     try:
         from distributed import Client, as_completed
     except ImportError as exc:  # pragma: no cover - dask[distributed] is a dependency
@@ -249,13 +357,17 @@ def _run_dask(spec, todo, scheduler, rec_dir, rows_fn, finished) -> None:
         written: set[str] = set()
         try:
             for fut in as_completed(list(futs)):
-                finished(futs[fut], fut.result())
+                rows = fut.result()
+                finished(futs[fut], rows)
+                advance(len(rows))
                 written.add(futs[fut])
         except BaseException:
             # keep every batch the cluster has already finished, then report the failure
             for fut, bid in futs.items():
                 if fut.status == "finished" and bid not in written:
-                    finished(bid, fut.result())
+                    rows = fut.result()
+                    finished(bid, rows)
+                    advance(len(rows))
             raise
     finally:
         client.close()

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -94,18 +94,21 @@ def _measure(res) -> tuple[str, str, dict[str, float]]:
     return status, reason, meas
 
 
-def run_rows(spec: SweepSpec, tests: list[dict[str, Any]], records_dir: str | None = None
-             ) -> list[dict[str, Any]]:
-    """Run ``tests`` (one batch of ``spec``) and return one row per test, in order."""
+def run_rows(spec: SweepSpec, tests: list[dict[str, Any]], records_dir: str | None = None,
+             progress: Callable[[float], None] | None = None) -> list[dict[str, Any]]:
+    """Run ``tests`` (one batch of ``spec``) and return one row per test, in order.
+
+    ``progress``: called now and then with the tests' worth of work done since its last call
+    (simulated time over the duration; see :func:`rths3d.loop.run_batch`)."""
     import numpy as np
 
     # NaN/inf of unstable tests are detected and reported, not raised
     with np.errstate(all="ignore"):
-        return _run_rows(spec, tests, records_dir)
+        return _run_rows(spec, tests, records_dir, progress)
 
 
-def _run_rows(spec: SweepSpec, tests: list[dict[str, Any]], records_dir: str | None
-              ) -> list[dict[str, Any]]:
+def _run_rows(spec: SweepSpec, tests: list[dict[str, Any]], records_dir: str | None,
+              progress: Callable[[float], None] | None = None) -> list[dict[str, Any]]:
     from ..loop import run_batch
     from ..scene import load_scene
 
@@ -125,7 +128,8 @@ def _run_rows(spec: SweepSpec, tests: list[dict[str, Any]], records_dir: str | N
         sets = [_overrides(spec, tests[i], base) for i in idx]
         nthread = int(os.environ.get(THREADS_ENV) or 0)
         try:
-            results = run_batch(base, sets, nthread=nthread)
+            results = run_batch(base, sets, nthread=nthread,
+                                progress=progress if progress is not None else False)
         except RthsError:
             # isolate the offending test(s); the others still run
             results = []

@@ -246,8 +246,13 @@ def _parse_family(d: Mapping[str, Any], where: str) -> Family:
     transfer = d.get("transfer")
     if transfer is not None and transfer not in transfer_kinds():
         raise ConfigError(f"{where}.transfer", transfer, f"one of {', '.join(transfer_kinds())}")
+    fam_where = f"family {name!r}"
+    graw = _table(d, "grid", where)
+    if "grid" in d and not graw:
+        raise ConfigError(f"{fam_where}.grid", {}, "is empty: give each swept key a list of "
+                          "values")
     grid: dict[str, tuple[Any, ...]] = {}
-    for k, v in _table(d, "grid", where).items():
+    for k, v in graw.items():
         vals = v if isinstance(v, list) else [v]
         if not vals:
             raise ConfigError(f"{where}.grid.{k}", v, "needs at least one value")
@@ -280,6 +285,12 @@ def _parse_family(d: Mapping[str, Any], where: str) -> Family:
         sample[str(k)] = (kind, lo, hi)
     if sample and n_sample < 1:
         raise ConfigError(f"{where}.sample.n", n_sample, "must be >= 1 when ranges are given")
+    if "sample" in d and not sample:
+        raise ConfigError(f"{fam_where}.sample", dict(d["sample"]), "has no ranges: give "
+                          "{uniform = [lo, hi]}, {loguniform = [lo, hi]} or {choice = [...]}")
+    if not grid and not sample:
+        raise ConfigError(f"{fam_where}.grid", None, "the family sweeps nothing: give "
+                          "[family.grid] lists of values or [family.sample] ranges")
     subset = d.get("subset")
     if subset is not None and (not _is_int(subset) or subset < 1):
         raise ConfigError(f"{where}.subset", subset, "must be an integer >= 1")

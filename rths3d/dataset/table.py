@@ -129,6 +129,11 @@ def training_data(frame: Any, feature_set: int | Sequence[str], target: str = DE
             raise ConfigError(field, value[0] if len(value) == 1 else list(value),
                               "table has no 'family' column")
     if families:
+        known = set(frame["family"].astype(str))  # the table's, finished tests or not
+        unknown = [f for f in families if f not in known]
+        if unknown:
+            raise ConfigError("--family", unknown[0], "no such family in the table (families: "
+                              f"{', '.join(sorted(known))})")
         rows = rows[rows["family"].isin(families)]
     if exclude:
         rows = rows[~rows["family"].isin(exclude)]

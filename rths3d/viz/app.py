@@ -13,6 +13,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from numbers import Integral
 from typing import Any
 
 import numpy as np
@@ -82,6 +83,32 @@ def check_host(host: str, field: str = "host", timeout: float = 5.0) -> None:
     raise ConfigError(field, host, "not an address of this machine")
 
 
+def check_port(host: str, port: int, field: str = "port") -> None:
+    """ConfigError unless ``port`` is a TCP port (0: any free one) that a server can bind on
+    ``host`` now; a port another server holds is named as such (viser would quietly serve
+    on the next free port instead)."""
+    import socket
+
+    if isinstance(port, bool) or not isinstance(port, Integral) or not 0 <= port <= 65535:
+        raise ConfigError(field, port, "must be a TCP port in [0, 65535] (0: any free port)")
+    if port == 0:
+        return
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+    except (OSError, UnicodeError):
+        return  # an unknown host is check_host's to report
+    for family, kind, proto, _, addr in infos[:1]:
+        with socket.socket(family, kind, proto) as sock:
+            # as the server will: a port left in TIME_WAIT by a previous run is free
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            try:
+                sock.bind(addr)
+            except OSError as exc:
+                raise ConfigError(field, port, f"cannot listen on {host}: "
+                                  f"{exc.strerror or exc} (another server holds it? "
+                                  "--port 0 picks a free port)") from None
+
+
 class Viewer:
     """Browser view of a stream of samples (live) or of a saved record (replay).
 
@@ -119,8 +146,8 @@ class Viewer:
             raise ConfigError("span", span, "window length in s must be > 0")
         if not exaggeration >= 1:
             raise ConfigError("exaggeration", exaggeration, "display factor must be >= 1")
-        if not 0 <= int(port) <= 65535:
-            raise ConfigError("port", port, "must be in [0, 65535]")
+        if isinstance(port, bool) or not isinstance(port, Integral) or not 0 <= port <= 65535:
+            raise ConfigError("port", port, "must be a TCP port in [0, 65535] (0: any free port)")
         self.buffer = buffer
         self.live = live
         self.geometry = geometry or geometry_from_meta(buffer.meta)
@@ -168,7 +195,14 @@ class Viewer:
         import viser
 
         check_host(self._host)
+        check_port(self._host, self._port)
         self.server = viser.ViserServer(host=self._host, port=self._port, verbose=False)
+        if self._port and self.server.get_port() != self._port:
+            # taken between the check and the server's start: viser moved to the next port
+            self.server.stop()
+            self.server = None
+            raise ConfigError("port", self._port, f"cannot listen on {self._host}: in use "
+                              "(--port 0 picks a free port)")
         self.server.gui.configure_theme(control_width="large", dark_mode=False,
                                         show_logo=False)
         self.server.initial_camera.position = (0.9, -1.05, 0.8)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -236,11 +237,16 @@ class LiveRun:
                     f"({self.scene.transfer.kind})")
         return "starting"
 
-    def close(self) -> str | None:
-        """Stop, wait and save the record if ``out`` was given; returns the file written."""
+    def close(self, save: Callable[[Any, str], Any] | None = None) -> str | None:
+        """Stop, wait and save the record if ``out`` was given; returns the file written.
+
+        ``save(record, out)`` writes it instead of ``record.save(out)`` (the command line
+        keeps a record that ``out`` refuses elsewhere) and returns the path written."""
         self.stop()
         res = self.join(60.0)
         if self.out and res is not None:
+            if save is not None:
+                return str(save(res.record, self.out))
             return str(res.record.save(self.out))
         return None
 

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import RthsError
 from ..record import RecordBuffer
 
 VIEW_NICE = 10
@@ -193,10 +194,14 @@ def child_main() -> None:
         restart=restart, pause=lambda: send("pause"), resume=lambda: send("resume"),
         stop=lambda: send("stop"), set_speed=lambda s: send("speed", s),
         status=lambda: status["text"], paused=not ctl.get("autostart", True))
-    view = Viewer(SharedRecordBuffer(spec), live=True, control=control, **options)
-    if ctl.get("autostart", True):
-        view.on_first_client = lambda: send("resume")
-    view.start()
+    try:
+        view = Viewer(SharedRecordBuffer(spec), live=True, control=control, **options)
+        if ctl.get("autostart", True):
+            view.on_first_client = lambda: send("resume")
+        view.start()
+    except RthsError as exc:  # a bad option or a busy port: the parent reports it
+        send("error", str(exc))
+        return
     send("port", view.port)
     try:
         for line in sys.stdin:
@@ -282,6 +287,9 @@ class ViewProcess:
         except queue.Empty:
             self.stop()
             raise TimeoutError(f"the view process did not start within {timeout} s") from None
+        if msg[0] == "error":  # the view refused an option (a busy port, say)
+            self.stop()
+            raise RthsError(str(msg[1]))
         if msg[0] != "port":
             self.stop()
             raise RuntimeError(f"the view process failed to start: {msg}")

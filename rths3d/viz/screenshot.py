@@ -39,6 +39,23 @@ def chromium_path() -> str | None:
     return path if Path(path).exists() else None
 
 
+def require_browser() -> str:
+    """The Chromium binary, after checking that a picture can be taken here: Playwright
+    installed (the ``browser`` extra) and a Chromium binary present. Otherwise one error
+    naming what to install (:class:`~rths3d.errors.RthsError`)."""
+    import importlib.util
+
+    from ..errors import MissingDependency, RthsError
+
+    if importlib.util.find_spec("playwright") is None:
+        raise MissingDependency("playwright", "a screenshot of the view", "browser")
+    exe = chromium_path()
+    if exe is None:
+        raise RthsError(f"a screenshot of the view needs Chromium at {CHROMIUM} (apt-get "
+                        "install chromium) or set RTHS3D_CHROMIUM to its path")
+    return exe
+
+
 def screenshot(url: str, path: str | os.PathLike, *, width: int = 1400, height: int = 900,
                settle: float = 6.0, timeout: float = 60.0) -> PageCheck:
     """Open ``url`` in headless Chromium, wait for the view to connect and draw, save a PNG.
@@ -48,11 +65,10 @@ def screenshot(url: str, path: str | os.PathLike, *, width: int = 1400, height: 
     """
     import numpy as np
     from PIL import Image
+
+    exe = require_browser()
     from playwright.sync_api import sync_playwright
 
-    exe = chromium_path()
-    if exe is None:
-        raise FileNotFoundError(f"no Chromium at {CHROMIUM} (set RTHS3D_CHROMIUM)")
     with tempfile.TemporaryDirectory() as profile, sync_playwright() as pw:
         ctx = pw.chromium.launch_persistent_context(
             profile, executable_path=exe, args=list(CHROMIUM_FLAGS), headless=True,
