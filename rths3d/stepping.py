@@ -15,16 +15,20 @@ no kernel (MuJoCo), so both paths compute the same physics.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from .effects.blocks import njit, run_chain
 from .numerical._kernels import linear_step
 from .safety import check_command, check_measured
 
+inline_njit = numba.njit(cache=True, nogil=True, inline="always")
+"""numba's compiler for the loop's small per-step helpers, inlined into their caller."""
+
 __all__ = ["linear_step", "noise_buffer", "record_row", "run_steps", "transfer_step"]
 
 
-@njit
+@inline_njit
 def record_row(data, row, z, zm, f, x, c_zc, c_zm, c_f, c_x):
     """Write z, z', F'_m and x of every test into row ``row`` of the record array."""
     for k in range(z.shape[0]):
@@ -36,7 +40,7 @@ def record_row(data, row, z, zm, f, x, c_zc, c_zm, c_f, c_x):
             data[row, k, c_x + i] = x[k, i]
 
 
-@njit
+@inline_njit
 def transfer_step(comp_f, comp_p, comp_s, act_fs, act_ps, act_ss, part_f, part_p, part_s,
                   sens_fs, sens_ps, sens_ss, z, zd, zm, zprev, ftrue, fmeas, u, w_act, w_sens):
     """One step of a compiled transfer system over R rows (1-D views of (K, n_if) arrays):
