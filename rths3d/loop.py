@@ -110,8 +110,10 @@ class _Group:
     """K compatible tests (one :func:`batch_key`) stepped together into one record array."""
 
     def __init__(self, scenes: list[Scene], *, nthread: int, specimen: str,
-                 numerical: NumericalFactory | None, test_ids: Sequence[int] | None):
+                 numerical: NumericalFactory | None, test_ids: Sequence[int] | None,
+                 reference: bool | str = True):
         base = scenes[0]
+        self.with_reference = bool(reference)
         self.scenes, self.base = scenes, base
         self.K, self.N, self.dt, self.nd = len(scenes), base.n_steps, base.dt, len(base.dofs)
         self.test_ids = list(test_ids) if test_ids is not None else list(range(self.K))
@@ -132,7 +134,8 @@ class _Group:
         for sig in self.transfer.signals:
             cols += sig.columns
         cols += [f"f_ext.{d}" for d in dofs] + [f"p_num.{i}" for i in range(num.n)]
-        cols += [f"z_ref.{d}" for d in dofs] + [f"x_ref.{i}" for i in range(num.n)]
+        if self.with_reference:  # no columns (nor memory) for a reference not asked for
+            cols += [f"z_ref.{d}" for d in dofs] + [f"x_ref.{i}" for i in range(num.n)]
         self.cols = cols
         self.ci = {c: i for i, c in enumerate(cols)}
         c0 = self.ci[f"z_cmd.{dofs[0]}"]
@@ -302,9 +305,6 @@ class _Group:
             d = b.data[: b.n]  # views of the loop's array (no copy of K × N × columns)
             rec = Record(d[:, 0], {c: d[:, i] for i, c in enumerate(b.columns) if i},
                          dict(b.meta))
-            if reference is False:
-                for c in [c for c in rec.columns if c.startswith(("z_ref.", "x_ref."))]:
-                    rec.columns.pop(c)
             out.append(RunResult(rec, b.meta["status"], b.meta["reason"], rtf, wall,
                                  b.meta["params"]))
         return out
@@ -321,7 +321,7 @@ def _run_group(scenes: list[Scene], *, reference: bool | str, nthread: int,
                test_ids: Sequence[int] | None = None) -> tuple[list[RunResult], str]:
     """Step K compatible tests together; returns their results and the reference model."""
     group = _Group(scenes, nthread=nthread, specimen=specimen, numerical=numerical,
-                   test_ids=test_ids)
+                   test_ids=test_ids, reference=reference)
     buffers = group.buffers()
     if buffers_out is not None:
         buffers_out.extend(buffers)

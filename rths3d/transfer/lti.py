@@ -70,7 +70,15 @@ class LTITransfer(ChainTransfer):
                        ) -> tuple[Chain, list[dict[str, Any]]]:
         K = len(scenes)
         dt = scenes[0].dt
-        models = [lti_model(s) for s in scenes]
+        # tests of one batch mostly share their actuator: one model per distinct setting
+        by_setting: dict[tuple, tuple] = {}
+        models = []
+        for s in scenes:
+            t = s.transfer
+            key = (t.num, t.den, t.delay, t.timeconst, t.velocity_ff, t.kp, t.kv)
+            if key not in by_setting:
+                by_setting[key] = lti_model(s)
+            models.append(by_setting[key])
         cache: dict[str, tuple] = {}
         rows, metas = [], []
         for num, den, delay in models:
