@@ -176,11 +176,11 @@ def reference_response(m: CaseMatrices, ag: np.ndarray, dt: float, method: str =
     if method == "foh":
         return lsim_foh(sysr, ag, dt)
     d = c2d(sysr, dt, "zoh")
-    from ..lti.discretize import _recur
+    from ..lti import recur
 
     X = np.zeros((ag.size, 6))
     if ag.size > 1:
-        X[1:] = _recur(d.Ad, np.zeros(6), ag[:-1, None] @ d.Bd.T)
+        X[1:] = recur(d.Ad, np.zeros(6), ag[:-1, None] @ d.Bd.T)
     return X @ d.Cd.T
 
 
