@@ -24,7 +24,7 @@ import scipy.linalg
 import scipy.signal
 
 from ..errors import ConfigError
-from .systems import ContinuousSS, SSConveniences
+from .systems import ContinuousSS, SSConveniences, proper_polynomials
 
 __all__ = ["DiscreteSS", "c2d", "foh_matrices", "lsim_foh", "recur", "tustin_tf"]
 
@@ -111,18 +111,11 @@ def tustin_tf(num: Sequence[float], den: Sequence[float], dt: float,
     filter at 4096 Hz already loses 10⁻¹² of the smaller coefficients.
     """
     dt = _check_dt(dt)
-    num_ = np.trim_zeros(np.atleast_1d(np.asarray(num, dtype=float)), "f")
-    den_ = np.trim_zeros(np.atleast_1d(np.asarray(den, dtype=float)), "f")
-    if den_.size == 0:
-        raise ConfigError("den", list(den), "denominator must not be zero")
-    if not (np.all(np.isfinite(num_)) and np.all(np.isfinite(den_))):
-        raise ConfigError("num/den", (list(num), list(den)), "coefficients must be finite")
-    if num_.size > den_.size:
-        raise ConfigError("num", list(num), "transfer function must be proper")
+    num_, den_ = proper_polynomials(num, den)
     w = _check_prewarp(prewarp, "tustin", dt)
     # s ← 2 fs (z − 1)/(z + 1); prewarped: 2 fs = ω₀ / tan(ω₀ dt / 2)
     fs = 1.0 / dt if w is None else 0.5 * w / np.tan(0.5 * w * dt)
-    b, a = scipy.signal.bilinear(num_ if num_.size else np.zeros(1), den_, fs=fs)
+    b, a = scipy.signal.bilinear(num_, den_, fs=fs)
     b = np.atleast_1d(b) / a[0]
     a = np.atleast_1d(a) / a[0]
     if b.size < a.size:

@@ -99,31 +99,21 @@ class ContinuousSS(SSConveniences, control.StateSpace):
         return bool(np.all(self.poles().real < 0.0))
 
 
-def _matrix(name: str, value: object) -> np.ndarray:
-    try:
-        arr = np.atleast_2d(np.asarray(value, dtype=float))
-    except (TypeError, ValueError) as exc:
-        raise ConfigError(name, value, "must be a numeric matrix") from exc
-    if arr.ndim != 2 or not np.all(np.isfinite(arr)):
-        raise ConfigError(name, value, "must be a finite 2-D matrix")
-    return arr
-
-
 def ss(A: object, B: object, C: object, D: object | None = None) -> ContinuousSS:
-    """A continuous system from its matrices (D defaults to zeros); shapes are checked."""
-    A_, B_, C_ = _matrix("A", A), _matrix("B", B), _matrix("C", C)
-    n = A_.shape[0] if A_.size else 0
-    if A_.size and A_.shape != (n, n):
-        raise ConfigError("A", A_.shape, "must be square")
-    if B_.size and B_.shape[0] != n:
-        raise ConfigError("B", B_.shape, f"must have {n} rows (states)")
-    if C_.size and C_.shape[1] != n:
-        raise ConfigError("C", C_.shape, f"must have {n} columns (states)")
-    p, m = C_.shape[0], B_.shape[1]
-    D_ = np.zeros((p, m)) if D is None else _matrix("D", D)
-    if D_.shape != (p, m):
-        raise ConfigError("D", D_.shape, f"shape must be {(p, m)}")
-    return ContinuousSS(A_.reshape(n, n), B_.reshape(n, m), C_.reshape(p, n), D_)
+    """A continuous system from its matrices (D defaults to zeros); python-control checks the
+    shapes, a bad one or a non-finite entry is a ConfigError naming the matrix."""
+    mats = {"A": A, "B": B, "C": C, "D": 0.0 if D is None else D}
+    for name, value in mats.items():
+        try:
+            finite = bool(np.all(np.isfinite(np.asarray(value, dtype=float))))
+        except (TypeError, ValueError):
+            finite = False
+        if not finite:
+            raise ConfigError(name, value, "must be a finite numeric matrix")
+    try:
+        return ContinuousSS(*mats.values())
+    except ValueError as exc:  # control.ControlDimension names the matrix and its shape
+        raise ConfigError("ss", message=f"ss: {exc}") from exc
 
 
 def tf(num: Sequence[float], den: Sequence[float]) -> ContinuousSS:
@@ -134,6 +124,13 @@ def tf(num: Sequence[float], den: Sequence[float]) -> ContinuousSS:
     D(s) must not be zero. For python-control's transfer-function object use
     ``control.tf(num, den)``.
     """
+    return ContinuousSS(control.tf2ss(*proper_polynomials(num, den)))
+
+
+def proper_polynomials(num: Sequence[float], den: Sequence[float]
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """N(s), D(s) as float arrays without leading zeros (N = [0] if zero), checked: finite,
+    D ≠ 0, deg N ≤ deg D; else a ConfigError naming ``num`` or ``den``."""
     num_ = np.trim_zeros(np.atleast_1d(np.asarray(num, dtype=float)), "f")
     den_ = np.trim_zeros(np.atleast_1d(np.asarray(den, dtype=float)), "f")
     if den_.size == 0:
@@ -142,7 +139,7 @@ def tf(num: Sequence[float], den: Sequence[float]) -> ContinuousSS:
         raise ConfigError("num/den", (list(num), list(den)), "coefficients must be finite")
     if num_.size > den_.size:
         raise ConfigError("num", list(num), f"degree must be ≤ that of den ({den_.size - 1})")
-    return ContinuousSS(control.tf2ss(num_ if num_.size else np.zeros(1), den_))
+    return (num_ if num_.size else np.zeros(1)), den_
 
 
 def _connect(name: str, fn: Any, *systems: Any, **kwargs: Any) -> ContinuousSS:
