@@ -64,11 +64,11 @@ def _da(v: float, q: float, sat: float) -> float:
 
 
 @njit(cache=True, nogil=True)
-def measure(k, alive, Z, P, mem, spec, nD, nF, conv, zc, zdc, zmc, XM, XN, FM):
+def measure(alive, Z, P, mem, spec, nD, nF, conv, zc, zdc, zmc, XM, XN, FM, k):
     """Sensors at t_k and the compensator's inputs ``zc = AD(y_n)``, ``zdc = ẏ_n``,
     ``zmc = AD(x_m)`` (K, 1). ``Z`` (K, 6), ``P`` (K, 5) states; ``mem`` (K, :data:`MEM`);
     ``spec`` (K, 3): k_e, c_e, m_e; ``nD``, ``nF`` noise per sample; logs ``XM``, ``XN``,
-    ``FM`` at row k."""
+    ``FM`` at row k. (The step index comes last so that a driver binds the rest once.)"""
     inv_h, q, sat = conv[0], conv[1], conv[2]
     for i in range(Z.shape[0]):
         if not alive[i]:
@@ -108,15 +108,15 @@ def phase_lead(alive, u, lead, hist, y):
 
 
 @njit(cache=True, nogil=True)
-def advance(k, yp_raw, alive, stop_at, Z, P, mem, ctrl, conv, limit, force_delay, stage,
-            PhiN, Gag, GF, PhiP, GY, GX, FA, YG, YP, work):
+def advance(alive, stop_at, Z, P, mem, ctrl, conv, limit, force_delay, stages, PhiN, Gag, GF,
+            PhiP, GY, GX, FA, YG, YP, work, k, yp_raw):
     """Tracking controller from the outer compensation's ``yp_raw`` (K, 1), force check, one
-    RK4 step of both parts. ``ctrl = [b₀, b₁, g]``, ``stage`` = ẍ_g at t_k, t_k + h/2,
+    RK4 step of both parts. ``ctrl = [b₀, b₁, g]``, ``stages[k]`` = ẍ_g at t_k, t_k + h/2,
     t_k + h; ``work`` (11,) scratch. Returns the number of trials stopped at the force limit
     in this step (their ``alive`` cleared, ``stop_at`` = k)."""
     q, sat = conv[1], conv[2]
     pb0, pb1, pg = ctrl[0], ctrl[1], ctrl[2]
-    a0, am, a1 = stage[0], stage[1], stage[2]
+    a0, am, a1 = stages[k, 0], stages[k, 1], stages[k, 2]
     stopped = 0
     for i in range(Z.shape[0]):
         if not alive[i]:
@@ -172,10 +172,10 @@ def run_fixed(lead, hist, alive, stop_at, Z, P, mem, spec, nD, nF, conv, ctrl, l
         if alive[i]:
             n_alive += 1
     for k in range(stages.shape[0]):
-        measure(k, alive, Z, P, mem, spec, nD, nF, conv, zc, zdc, zmc, XM, XN, FM)
+        measure(alive, Z, P, mem, spec, nD, nF, conv, zc, zdc, zmc, XM, XN, FM, k)
         phase_lead(alive, zc, lead, hist, yp)
-        n_alive -= advance(k, yp, alive, stop_at, Z, P, mem, ctrl, conv, limit, force_delay,
-                           stages[k], PhiN, Gag, GF, PhiP, GY, GX, FA, YG, YP, work)
+        n_alive -= advance(alive, stop_at, Z, P, mem, ctrl, conv, limit, force_delay, stages,
+                           PhiN, Gag, GF, PhiP, GY, GX, FA, YG, YP, work, k, yp)
         if n_alive == 0:
             return k + 1
     return stages.shape[0]

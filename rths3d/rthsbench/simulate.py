@@ -18,6 +18,7 @@ trial or K trials per call. An independent numpy implementation of the same step
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
@@ -283,21 +284,18 @@ class _Loop:
         self.FA, self.YG, self.YP = np.zeros((N, K)), np.zeros((N, K)), np.zeros((N, K))
         self.alive = np.ones(K, dtype=bool)
         self.stop_at = np.full(K, -1, dtype=np.int64)
-        self._measure_args = (self.alive, self.Z, self.P, self.mem, self.spec, self.nD,
-                              self.nF, self.conv, self.zc, self.zdc, self.zmc, self.XM,
-                              self.XN, self.FM)
-        self._advance_args = (self.alive, self.stop_at, self.Z, self.P, self.mem, self.ctrl,
-                              self.conv, self.limit, self.force_delay)
-
-    def measure(self, k: int) -> None:
-        """Sensors at t_k; the compensator's inputs in ``zc``, ``zdc``, ``zmc``."""
-        kernels.measure(k, *self._measure_args)
-
-    def advance(self, k: int, yp: np.ndarray) -> int:
-        """Tracking controller from ``yp`` (K, 1), force check, RK4 step; the number of
-        trials stopped at the force limit."""
-        return kernels.advance(k, yp, *self._advance_args, self.stages[k], *self.mats,
-                               self.FA, self.YG, self.YP, self.work)
+        # the kernels with everything but the step (and the command) bound once
+        self.measure: Callable[[int], None] = functools.partial(
+            kernels.measure, self.alive, self.Z, self.P, self.mem, self.spec, self.nD,
+            self.nF, self.conv, self.zc, self.zdc, self.zmc, self.XM, self.XN, self.FM)
+        """``measure(k)``: sensors at t_k; the compensator's inputs in ``zc``, ``zdc``,
+        ``zmc``."""
+        self.advance: Callable[[int, np.ndarray], int] = functools.partial(
+            kernels.advance, self.alive, self.stop_at, self.Z, self.P, self.mem, self.ctrl,
+            self.conv, self.limit, self.force_delay, self.stages, *self.mats, self.FA,
+            self.YG, self.YP, self.work)
+        """``advance(k, yp)``: tracking controller from ``yp`` (K, 1), force check, RK4
+        step; the number of trials stopped at the force limit."""
 
     def run_fixed(self) -> int:
         """The whole loop with the benchmark's phase lead, compiled; steps run."""
