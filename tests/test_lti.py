@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import json
 import math
+from fractions import Fraction
 
+import control
 import numpy as np
 import pytest
 import scipy.signal
@@ -325,3 +327,89 @@ def test_system_from_scene_data():
         system_from_dict({"num": [1.0]}, field="plant")
     with pytest.raises(ConfigError, match=r"plant\.C"):
         system_from_dict({"A": [[0.0]], "B": [[1.0]]}, field="plant")
+
+
+def test_prewarped_tustin_is_exact_at_the_prewarp_frequency():
+    """Tustin prewarped at ω₀ reproduces G(jω₀) of the oscillator exactly (plain Tustin does
+    not), for the state-space c2d and for the coefficient form tustin_tf alike."""
+    dt, w0 = 1 / 200, 2 * np.pi * 40.0  # 40 Hz of a 100 Hz Nyquist: Tustin warps strongly
+    exact = WN**2 / (WN**2 - w0**2 + 2j * ZETA * WN * w0)
+    warped = c2d(tf(*OSC), dt, "tustin", prewarp=w0).freqresp([w0])[0, 0, 0]
+    plain = c2d(tf(*OSC), dt, "tustin").freqresp([w0])[0, 0, 0]
+    assert abs(warped - exact) < 1e-12 * abs(exact)
+    assert abs(plain - exact) > 1e-3 * abs(exact)
+    b, a = tustin_tf(*OSC, dt, prewarp=w0)
+    z1 = np.exp(-1j * w0 * dt)  # z⁻¹ on the unit circle
+    g = np.polyval(b[::-1], z1) / np.polyval(a[::-1], z1)
+    assert abs(g - exact) < 1e-12 * abs(exact)
+    lead = controller_from_dict({"type": "tf", "num": OSC[0], "den": OSC[1], "prewarp": w0},
+                                dt)
+    np.testing.assert_allclose(lead.b, b, rtol=1e-15)
+
+
+def test_tustin_tf_equals_exact_rational_substitution_and_python_control():
+    """tustin_tf of a 3rd-order filter equals s ← 2/T (z−1)/(z+1) done in exact rational
+    arithmetic to the last digit, and python-control's sample_system to its round-off."""
+    num, den, dt = [3, 2, 1], [1, 4, 9, 5], Fraction(1, 4096)
+
+    def substitute(c: list[int], n: int) -> list[Fraction]:
+        out = [Fraction(0)] * (n + 1)  # ascending powers of z
+        for i, ci in enumerate(c):
+            p = len(c) - 1 - i  # power of s
+            poly = [Fraction(1)]
+            for _ in range(p):  # × (z − 1)
+                poly = [b - a for a, b in zip([*poly, 0], [0, *poly], strict=True)]
+            for _ in range(n - p):  # × (z + 1)
+                poly = [a + b for a, b in zip([*poly, 0], [0, *poly], strict=True)]
+            for j, v in enumerate(poly):
+                out[j] += ci * (2 / dt) ** p * v
+        return out[::-1]
+
+    bq, aq = substitute(num, 3), substitute(den, 3)
+    b_exact = np.array([float(v / aq[0]) for v in bq])
+    a_exact = np.array([float(v / aq[0]) for v in aq])
+    b, a = tustin_tf(num, den, float(dt))
+    np.testing.assert_allclose(b, b_exact, rtol=1e-15)
+    np.testing.assert_allclose(a, a_exact, rtol=1e-15)
+    g = control.sample_system(control.tf(num, den), float(dt), "tustin")
+    np.testing.assert_allclose(np.asarray(g.num[0][0]) / g.den[0][0][0], b, rtol=1e-10)
+    np.testing.assert_allclose(np.asarray(g.den[0][0]) / g.den[0][0][0], a, rtol=1e-12)
+
+
+def test_design_objects_are_python_control_systems():
+    """tf, ss, series, feedback and c2d give control.StateSpace objects that python-control's
+    own functions take: its forced_response (an independent FOH solver) equals lsim_foh, and
+    a difference equation's control.tf has the frequency response of scipy.signal.freqz."""
+    g = series(tf([1.0], [1.0, 2.0]), tf(*OSC))
+    d = c2d(g, 1e-3, "zoh")
+    for sys in (g, feedback(g), ss([[-1.0]], [[1.0]], [[1.0]]), d):
+        assert isinstance(sys, control.StateSpace)
+    assert g.dt == 0 and d.dt == 1e-3 and control.isdtime(d, strict=True)
+    t = 1e-3 * np.arange(800)
+    u = np.sin(30 * t) + 0.5 * np.cos(110 * t)
+    y_ct = control.forced_response(g, t, u).outputs
+    np.testing.assert_allclose(lsim_foh(g, u, 1e-3)[:, 0], y_ct, atol=1e-12 * np.max(np.abs(y_ct)))
+    de = lead_lag([50.8, 8570.0], [1.0, 8570.0], 1 / 4096)
+    w = 2 * np.pi * np.array([1.0, 30.0, 300.0, 1500.0])
+    _, h = scipy.signal.freqz(de.b, de.a, worN=w / (2 * np.pi), fs=4096)
+    np.testing.assert_allclose(de.to_tf()(np.exp(1j * w / 4096)), h, rtol=1e-12)
+    np.testing.assert_allclose(de.to_ss().freqresp(w)[:, 0, 0], h, rtol=1e-10)
+
+
+def test_bad_prewarp_and_connections_name_the_field():
+    """A prewarp outside Tustin or (0, π/dt), mismatched block sizes and a singular algebraic
+    loop are ConfigErrors naming the field."""
+    g = tf(*OSC)
+    with pytest.raises(ConfigError, match="prewarp.*only Tustin"):
+        c2d(g, 1e-3, "zoh", prewarp=10.0)
+    with pytest.raises(ConfigError, match=r"prewarp: 4000\.0"):
+        c2d(g, 1e-3, "tustin", prewarp=4000.0)  # above π/dt = 3141.6 rad/s
+    with pytest.raises(ConfigError, match=r"controller\.prewarp"):
+        controller_from_dict({"type": "tf", "num": [1.0], "den": [1.0, 1.0], "prewarp": -1.0},
+                             1e-3)
+    with pytest.raises(ConfigError, match="series"):
+        series(ss([[-1.0]], [[1.0, 1.0]], [[1.0], [2.0]]), g)  # 2 outputs into 1 input
+    with pytest.raises(ConfigError, match="feedback"):
+        feedback(ss(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), [[1.0]]), sign=+1)
+    with pytest.raises(ConfigError, match="method"):
+        c2d(g, 1e-3, "impulse")

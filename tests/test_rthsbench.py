@@ -231,8 +231,8 @@ def test_perturbed_draw_order_and_partition_adds_up():
     assert m.Cn[0, 0] + p.c_e == pytest.approx(m.C[0, 0], rel=1e-15)
 
 
-def test_batched_engine_equals_generated_loop(elcentro):
-    """The numpy engine (K trials together) reproduces the generated single-test loop."""
+def test_batched_engine_equals_compiled_loop(elcentro):
+    """The numpy engine (K trials together) reproduces the compiled single-test loop."""
     cfg = BenchmarkConfig(case=2, t_end=2.0)  # noise excites the loop
     plants = [PlantParams(), PlantParams().perturbed(np.random.default_rng(3))]
     a = run_trials(cfg, plants=plants, gm=elcentro, engine="python")

@@ -1,10 +1,12 @@
 """Discrete controllers: difference equations, PI, lead/lag, built from scene data.
 
 A controller is a :class:`DifferenceEquation`
-``y[k] = Σ_{i≥0} b_i u[k−i] − Σ_{i≥1} a_i y[k−i]`` (``a[0] = 1``; powers of z⁻¹), obtained from a
-continuous design by Tustin without prewarping (MATLAB ``c2d(..., 'tustin')``), or given
-directly. For a PI controller ``G_C(s) = K_p + K_i/s`` this gives
-``y[k] = y[k−1] + (K_p + K_i T_s/2) e[k] − (K_p − K_i T_s/2) e[k−1]``.
+``y[k] = Σ_{i≥0} b_i u[k−i] − Σ_{i≥1} a_i y[k−i]`` (``a[0] = 1``; powers of z⁻¹), obtained
+from a continuous design by Tustin (python-control ``sample_system``; MATLAB
+``c2d(..., 'tustin')``, without prewarping unless asked), or given directly. For a PI
+controller ``G_C(s) = K_p + K_i/s`` this gives
+``y[k] = y[k−1] + (K_p + K_i T_s/2) e[k] − (K_p − K_i T_s/2) e[k−1]``. ``to_tf`` / ``to_ss``
+give the python-control objects for analysis, ``scalar`` / ``batch`` the per-step steppers.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from dataclasses import dataclass
 from numbers import Real
 from typing import Any
 
+import control
 import numpy as np
 import scipy.signal
 
@@ -51,15 +54,16 @@ class DifferenceEquation:
             raise ConfigError("controller.a", list(a), "a[0] must be nonzero")
         return cls(tuple(float(v) / a0 for v in b), tuple(float(v) / a0 for v in a), float(dt))
 
-    def to_ss(self) -> DiscreteSS:
-        """A state-space realisation (controllable canonical form)."""
+    def to_tf(self) -> control.TransferFunction:
+        """The discrete transfer function ``b(z⁻¹)/a(z⁻¹)`` as a python-control object."""
         n = max(len(self.a), len(self.b))
         b = np.concatenate([self.b, np.zeros(n - len(self.b))])
         a = np.concatenate([self.a, np.zeros(n - len(self.a))])
-        A, B, C, D = scipy.signal.tf2ss(b, a)
-        k = n - 1
-        return DiscreteSS(np.reshape(A, (k, k)), np.reshape(B, (k, 1)), np.reshape(C, (1, k)),
-                          np.reshape(D, (1, 1)), self.dt, "difference")
+        return control.tf(b, a, self.dt)
+
+    def to_ss(self) -> DiscreteSS:
+        """A state-space realisation (``control.tf2ss``: controllable canonical form)."""
+        return DiscreteSS(control.tf2ss(self.to_tf()), method="difference")
 
     def scalar(self) -> ScalarStepper:
         """A plain-float stepper: ``step(u: float) -> float`` (K = 1 hot loop)."""
@@ -97,7 +101,8 @@ def numbers_field(field: str, value: Any) -> tuple[float, ...]:
 
 
 def pi_controller(kp: float, ki: float, dt: float) -> DifferenceEquation:
-    """Tustin discretisation of ``G_C(s) = K_p + K_i/s`` (K_p dimensionless, K_i in 1/s)."""
+    """Tustin discretisation of ``G_C(s) = K_p + K_i/s`` (K_p dimensionless, K_i in 1/s):
+    ``b = (K_p + K_i T/2, −(K_p − K_i T/2))``, ``a = (1, −1)``."""
     for name, v in (("controller.kp", kp), ("controller.ki", ki)):
         if not np.isfinite(v):
             raise ConfigError(name, v, "must be finite")
@@ -105,9 +110,11 @@ def pi_controller(kp: float, ki: float, dt: float) -> DifferenceEquation:
     return DifferenceEquation.from_arrays(b, a, dt)
 
 
-def lead_lag(num: Sequence[float], den: Sequence[float], dt: float) -> DifferenceEquation:
-    """Tustin discretisation of a continuous compensator ``N(s)/D(s)`` (e.g. a phase lead)."""
-    b, a = tustin_tf(num, den, dt)
+def lead_lag(num: Sequence[float], den: Sequence[float], dt: float,
+             prewarp: float | None = None) -> DifferenceEquation:
+    """Tustin discretisation of a continuous compensator ``N(s)/D(s)`` (e.g. a phase lead),
+    prewarped at ``prewarp`` rad/s if given (:func:`~.discretize.tustin_tf`)."""
+    b, a = tustin_tf(num, den, dt, prewarp)
     return DifferenceEquation.from_arrays(b, a, dt)
 
 
@@ -118,7 +125,8 @@ def controller_from_dict(spec: Mapping[str, Any], dt: float, field: str = "contr
     Accepted forms (``type`` key):
 
     * ``{"type": "pi", "kp": 2.0, "ki": 95.0}``
-    * ``{"type": "tf", "num": [...], "den": [...]}`` — continuous, discretised by Tustin
+    * ``{"type": "tf", "num": [...], "den": [...]}`` — continuous, discretised by Tustin;
+      an optional ``"prewarp": ω₀`` (rad/s) matches it at ω₀
     * ``{"type": "difference", "b": [...], "a": [...]}`` — already discrete at ``dt``
     """
     kind = spec.get("type")
@@ -127,8 +135,15 @@ def controller_from_dict(spec: Mapping[str, Any], dt: float, field: str = "contr
             return pi_controller(number_field(f"{field}.kp", spec["kp"]),
                                  number_field(f"{field}.ki", spec["ki"]), dt)
         if kind == "tf":
-            return lead_lag(numbers_field(f"{field}.num", spec["num"]),
-                            numbers_field(f"{field}.den", spec["den"]), dt)
+            w = spec.get("prewarp")
+            try:
+                return lead_lag(numbers_field(f"{field}.num", spec["num"]),
+                                numbers_field(f"{field}.den", spec["den"]), dt,
+                                None if w is None else number_field(f"{field}.prewarp", w))
+            except ConfigError as exc:
+                if exc.field == "prewarp":
+                    raise ConfigError(f"{field}.prewarp", exc.value, exc.limit) from None
+                raise
         if kind == "difference":
             return DifferenceEquation.from_arrays(numbers_field(f"{field}.b", spec["b"]),
                                                   numbers_field(f"{field}.a", spec["a"]), dt)

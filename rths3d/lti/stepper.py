@@ -1,5 +1,9 @@
 """Stepping LTI systems in a loop: K tests at once, a plain-float fast path, and RK4.
 
+The steppers take python-control state-space objects (:class:`~.discretize.DiscreteSS`,
+:class:`~.systems.ContinuousSS` or any ``control.StateSpace``) designed once, and run them
+per step:
+
 * :class:`StateSpaceStepper` — a discrete system stepped for K tests together, states of
   shape (K, n), all work arrays preallocated (``step`` allocates nothing).
 * :class:`ScalarStepper` — the same for K = 1 and a SISO system with plain Python floats
@@ -16,33 +20,33 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import control
 import numpy as np
 
 from ..errors import ConfigError
-from .discretize import DiscreteSS
-from .systems import ContinuousSS
+from .systems import tf_coefficients
 
 __all__ = ["RK4Stepper", "ScalarStepper", "StateSpaceStepper", "affine_step_matrices",
            "rk4_step"]
 
 
 class StateSpaceStepper:
-    """Step a :class:`DiscreteSS` for ``K`` tests together.
+    """Step a discrete system (``control.StateSpace``) for ``K`` tests together.
 
     ``step(u)`` takes inputs of shape (K, m) and returns the outputs ``y[k]`` (K, p) — a view
     of an internal buffer that the next call overwrites — then advances the states.
     """
 
-    def __init__(self, sys: DiscreteSS, K: int = 1):
+    def __init__(self, sys: control.StateSpace, K: int = 1):
         if int(K) < 1:
             raise ConfigError("K", K, "number of tests must be ≥ 1")
         self.sys = sys
         self.K = int(K)
-        n, m, p = sys.n_states, sys.n_inputs, sys.n_outputs
-        self._AdT = np.ascontiguousarray(sys.Ad.T)
-        self._BdT = np.ascontiguousarray(sys.Bd.T)
-        self._CdT = np.ascontiguousarray(sys.Cd.T)
-        self._DdT = np.ascontiguousarray(sys.Dd.T)
+        n, m, p = sys.nstates, sys.ninputs, sys.noutputs
+        self._AdT = np.ascontiguousarray(sys.A.T)
+        self._BdT = np.ascontiguousarray(sys.B.T)
+        self._CdT = np.ascontiguousarray(sys.C.T)
+        self._DdT = np.ascontiguousarray(sys.D.T)
         self.x = np.zeros((self.K, n))
         self._xn = np.zeros((self.K, n))
         self._tmp_n = np.zeros((self.K, n))
@@ -73,15 +77,9 @@ class ScalarStepper:
     function; ``step(u: float) -> float``.
     """
 
-    def __init__(self, sys: DiscreteSS | tuple[np.ndarray, np.ndarray]):
-        if isinstance(sys, DiscreteSS):
-            if sys.n_inputs != 1 or sys.n_outputs != 1:
-                raise ConfigError("system", (sys.n_outputs, sys.n_inputs),
-                                  "ScalarStepper needs a SISO system")
-            import scipy.signal
-
-            num, den = scipy.signal.ss2tf(sys.Ad, sys.Bd, sys.Cd, sys.Dd)
-            b, a = np.asarray(num[0], float), np.asarray(den, float)
+    def __init__(self, sys: control.StateSpace | tuple[np.ndarray, np.ndarray]):
+        if isinstance(sys, control.StateSpace):
+            b, a = tf_coefficients(sys)
         else:
             b, a = (np.atleast_1d(np.asarray(v, float)) for v in sys)
         if a.size == 0 or a[0] == 0.0:
@@ -152,7 +150,8 @@ def affine_step_matrices(step: Callable[[np.ndarray, np.ndarray], np.ndarray], n
 
 
 class RK4Stepper:
-    """Advance a :class:`ContinuousSS` by RK4 over one period ``dt`` per call, for K tests.
+    """Advance a continuous system (``control.StateSpace``) by RK4 over one period ``dt`` per
+    call, for K tests.
 
     Parameters
     ----------
@@ -172,7 +171,7 @@ class RK4Stepper:
     end of the call, ``y = C x + D u_end`` (a reused buffer).
     """
 
-    def __init__(self, sys: ContinuousSS, dt: float, substeps: int = 1, input: str = "hold",
+    def __init__(self, sys: control.StateSpace, dt: float, substeps: int = 1, input: str = "hold",
                  K: int = 1):
         if not (float(dt) > 0.0):
             raise ConfigError("dt", dt, "must be > 0 s")
@@ -184,7 +183,7 @@ class RK4Stepper:
             raise ConfigError("K", K, "number of tests must be ≥ 1")
         self.sys, self.dt, self.substeps, self.input, self.K = (
             sys, float(dt), int(substeps), input, int(K))
-        n, m = sys.n_states, sys.n_inputs
+        n, m = sys.nstates, sys.ninputs
         h = self.dt / self.substeps
         A, B = sys.A, sys.B
 
@@ -213,8 +212,8 @@ class RK4Stepper:
         self.x = np.zeros((self.K, n))
         self._xn = np.zeros((self.K, n))
         self._tmp = np.zeros((self.K, n))
-        self.y = np.zeros((self.K, sys.n_outputs))
-        self._tmp_p = np.zeros((self.K, sys.n_outputs))
+        self.y = np.zeros((self.K, sys.noutputs))
+        self._tmp_p = np.zeros((self.K, sys.noutputs))
 
     def reset(self) -> None:
         self.x[:] = 0.0

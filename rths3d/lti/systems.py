@@ -1,131 +1,136 @@
-"""Continuous-time linear time-invariant systems: state space, transfer functions, block diagrams.
+"""Continuous-time LTI systems: python-control state-space objects built from scene data.
 
-A :class:`ContinuousSS` holds ``ẋ = A x + B u``, ``y = C x + D u`` (SI units of whatever the
-signals are; time in s). Build one from a transfer function (:func:`tf`), from matrices
-(:func:`ss`), or by connecting systems (:func:`series`, :func:`parallel`, :func:`feedback`).
+The design-time objects are python-control's (:class:`control.StateSpace`; time in s, SI
+units of whatever the signals are). :class:`ContinuousSS` is a ``control.StateSpace`` with
+``dt = 0`` and the few conveniences rths3d code and scenes use (see :class:`SSConveniences`);
+:func:`tf`, :func:`ss`, :func:`series`, :func:`parallel` and :func:`feedback` check their
+input, name the bad field in a :class:`~rths3d.errors.ConfigError`, and call
+``control.tf2ss``, ``control.ss``, ``control.series``, ``control.parallel`` and
+``control.feedback``. Any python-control function takes these objects directly.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from typing import Any
 
+import control
 import numpy as np
-import scipy.linalg
-import scipy.signal
 
 from ..errors import ConfigError
 
-__all__ = ["ContinuousSS", "feedback", "parallel", "series", "ss", "system_from_dict", "tf"]
+__all__ = ["ContinuousSS", "SSConveniences", "feedback", "parallel", "series", "ss",
+           "system_from_dict", "tf", "tf_coefficients"]
 
 
-def _matrix(name: str, value: object, shape: tuple[int, int] | None = None) -> np.ndarray:
-    try:
-        arr = np.atleast_2d(np.asarray(value, dtype=float))
-    except (TypeError, ValueError) as exc:
-        raise ConfigError(name, value, "must be a numeric matrix") from exc
-    if arr.ndim != 2:
-        raise ConfigError(name, arr.shape, "must be a 2-D matrix")
-    if not np.all(np.isfinite(arr)):
-        raise ConfigError(name, value, "must be finite")
-    if shape is not None and arr.shape != shape:
-        raise ConfigError(name, arr.shape, f"shape must be {shape}")
-    arr.setflags(write=False)
-    return arr
+class SSConveniences:
+    """Methods rths3d adds to a ``control.StateSpace`` (mixed in before it).
 
-
-@dataclass(frozen=True, eq=False)
-class ContinuousSS:
-    """Continuous LTI system ``ẋ = A x + B u``, ``y = C x + D u``.
-
-    Attributes
-    ----------
-    A, B, C, D:
-        Read-only float matrices of shapes (n, n), (n, m), (p, n), (p, m).
+    ``freqresp`` and ``dcgain`` always return arrays of shape (len(ω), p, m) and (p, m), also
+    for SISO systems (python-control squeezes them); ``to_tf`` returns coefficient arrays.
     """
 
     A: np.ndarray
     B: np.ndarray
     C: np.ndarray
     D: np.ndarray
+    dt: Any
+    nstates: int
+    ninputs: int
+    noutputs: int
 
     @property
     def n_states(self) -> int:
-        return self.A.shape[0]
+        return self.nstates
 
     @property
     def n_inputs(self) -> int:
-        return self.B.shape[1]
+        return self.ninputs
 
     @property
     def n_outputs(self) -> int:
-        return self.C.shape[0]
+        return self.noutputs
 
-    def poles(self) -> np.ndarray:
-        """Eigenvalues of A (rad/s), sorted by real part then imaginary part."""
-        if self.n_states == 0:
-            return np.zeros(0, dtype=complex)
-        ev = np.linalg.eigvals(self.A)
-        return ev[np.lexsort((ev.imag, ev.real))]
+    def freqresp(self, omega: Sequence[float] | np.ndarray) -> np.ndarray:
+        """Frequency response at ω (rad/s), shape (len(ω), p, m): G(jω), or G(e^{jω dt})
+        for a discrete system."""
+        w = np.atleast_1d(np.asarray(omega, dtype=float))
+        x = np.exp(1j * w * self.dt) if self.dt else 1j * w
+        return np.moveaxis(np.asarray(self(x, squeeze=False)), -1, 0)  # type: ignore[operator]
+
+    def dcgain(self, warn_infinite: bool = False) -> np.ndarray:
+        """Static gain, shape (p, m): ``D − C A⁻¹ B`` (continuous), ``D + C (I − A)⁻¹ B``
+        (discrete)."""
+        g = super().dcgain(warn_infinite)  # type: ignore[misc]
+        return np.asarray(g, dtype=float if np.isrealobj(g) else complex).reshape(
+            self.noutputs, self.ninputs)
+
+    def to_tf(self) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`tf_coefficients` of this (SISO) system."""
+        return tf_coefficients(self)  # type: ignore[arg-type]
+
+
+def tf_coefficients(sys: control.StateSpace) -> tuple[np.ndarray, np.ndarray]:
+    """Numerator and denominator of a SISO system (``control.ss2tf``), descending powers of
+    s (or z), the numerator padded with leading zeros to the denominator's length (so that,
+    for a discrete system, they are also the coefficients of z⁻¹)."""
+    if sys.ninputs != 1 or sys.noutputs != 1:
+        raise ConfigError("system", (sys.noutputs, sys.ninputs), "needs a SISO system")
+    g = control.ss2tf(sys)
+    num = np.asarray(g.num[0][0], dtype=float)
+    den = np.asarray(g.den[0][0], dtype=float)
+    return np.concatenate([np.zeros(max(den.size - num.size, 0)), num]), den
+
+
+class ContinuousSS(SSConveniences, control.StateSpace):
+    """Continuous LTI system ``ẋ = A x + B u``, ``y = C x + D u`` (a ``control.StateSpace``
+    with ``dt = 0``). ``ContinuousSS(sys)`` takes any continuous python-control system."""
+
+    def __init__(self, *args: Any, **kwargs: Any):
+        if len(args) == 1:
+            sys = control.ss(args[0])
+            if sys.dt not in (0, None):
+                raise ConfigError("system", sys.dt, "must be continuous (dt = 0)")
+            args = (sys.A, sys.B, sys.C, sys.D)
+        super().__init__(*args, 0, **kwargs)
 
     def is_stable(self) -> bool:
         """True when every pole has a strictly negative real part."""
         return bool(np.all(self.poles().real < 0.0))
 
-    def freqresp(self, omega: Sequence[float] | np.ndarray) -> np.ndarray:
-        """Frequency response G(jω), shape (len(ω), p, m); ω in rad/s."""
-        w = np.atleast_1d(np.asarray(omega, dtype=float))
-        n = self.n_states
-        out = np.empty((w.size, self.n_outputs, self.n_inputs), dtype=complex)
-        eye = np.eye(n)
-        for i, wi in enumerate(w):
-            if n:
-                out[i] = self.C @ np.linalg.solve(1j * wi * eye - self.A, self.B) + self.D
-            else:
-                out[i] = self.D
-        return out
-
-    def dcgain(self) -> np.ndarray:
-        """Static gain ``D − C A⁻¹ B``, shape (p, m)."""
-        if self.n_states == 0:
-            return np.array(self.D)
-        return self.D - self.C @ np.linalg.solve(self.A, self.B)
-
-    def to_tf(self) -> tuple[np.ndarray, np.ndarray]:
-        """Numerator and denominator (descending powers of s) of a SISO system."""
-        if self.n_inputs != 1 or self.n_outputs != 1:
-            raise ConfigError("system", (self.n_outputs, self.n_inputs), "to_tf needs SISO")
-        num, den = scipy.signal.ss2tf(self.A, self.B, self.C, self.D)
-        return np.asarray(num[0], dtype=float), np.asarray(den, dtype=float)
-
 
 def ss(A: object, B: object, C: object, D: object | None = None) -> ContinuousSS:
-    """A continuous system from its matrices (D defaults to zeros); shapes are checked."""
-    A_ = _matrix("A", A)
-    n = A_.shape[0]
-    if A_.shape != (n, n):
-        raise ConfigError("A", A_.shape, "must be square")
-    B_ = _matrix("B", B)
-    if n == 0:
-        B_ = B_.reshape(0, B_.shape[-1])
-    if B_.shape[0] != n:
-        raise ConfigError("B", B_.shape, f"must have {n} rows (states)")
-    C_ = _matrix("C", C)
-    if C_.shape[1] != n and not (n == 0):
-        raise ConfigError("C", C_.shape, f"must have {n} columns (states)")
-    if n == 0:
-        C_ = C_.reshape(C_.shape[0] if C_.size else 1, 0)
-    p, m = C_.shape[0], B_.shape[1]
-    D_ = _matrix("D", np.zeros((p, m)) if D is None else D, (p, m))
-    return ContinuousSS(A_, B_, C_, D_)
+    """A continuous system from its matrices (D defaults to zeros); python-control checks the
+    shapes, a bad one or a non-finite entry is a ConfigError naming the matrix."""
+    mats = {"A": A, "B": B, "C": C, "D": 0.0 if D is None else D}
+    for name, value in mats.items():
+        try:
+            finite = bool(np.all(np.isfinite(np.asarray(value, dtype=float))))
+        except (TypeError, ValueError):
+            finite = False
+        if not finite:
+            raise ConfigError(name, value, "must be a finite numeric matrix")
+    try:
+        return ContinuousSS(*mats.values())
+    except ValueError as exc:  # control.ControlDimension names the matrix and its shape
+        raise ConfigError("ss", message=f"ss: {exc}") from exc
 
 
 def tf(num: Sequence[float], den: Sequence[float]) -> ContinuousSS:
     """A SISO system from a transfer function N(s)/D(s), coefficients in descending powers.
 
-    The realisation is the controllable canonical form of :func:`scipy.signal.tf2ss`. The
-    transfer function must be proper (deg N ≤ deg D) and D(s) must not be zero.
+    The realisation is ``control.tf2ss`` (without slycot: the controllable canonical form of
+    :func:`scipy.signal.tf2ss`). The transfer function must be proper (deg N ≤ deg D) and
+    D(s) must not be zero. For python-control's transfer-function object use
+    ``control.tf(num, den)``.
     """
+    return ContinuousSS(control.tf2ss(*proper_polynomials(num, den)))
+
+
+def proper_polynomials(num: Sequence[float], den: Sequence[float]
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """N(s), D(s) as float arrays without leading zeros (N = [0] if zero), checked: finite,
+    D ≠ 0, deg N ≤ deg D; else a ConfigError naming ``num`` or ``den``."""
     num_ = np.trim_zeros(np.atleast_1d(np.asarray(num, dtype=float)), "f")
     den_ = np.trim_zeros(np.atleast_1d(np.asarray(den, dtype=float)), "f")
     if den_.size == 0:
@@ -134,66 +139,47 @@ def tf(num: Sequence[float], den: Sequence[float]) -> ContinuousSS:
         raise ConfigError("num/den", (list(num), list(den)), "coefficients must be finite")
     if num_.size > den_.size:
         raise ConfigError("num", list(num), f"degree must be ≤ that of den ({den_.size - 1})")
-    if num_.size == 0:
-        num_ = np.zeros(1)
-    A, B, C, D = scipy.signal.tf2ss(num_, den_)
-    n = den_.size - 1
-    return ss(np.reshape(A, (n, n)), np.reshape(B, (n, 1)), np.reshape(C, (1, n)),
-              np.reshape(D, (1, 1)))
+    return (num_ if num_.size else np.zeros(1)), den_
+
+
+def _connect(name: str, fn: Any, *systems: Any, **kwargs: Any) -> ContinuousSS:
+    """``fn(*systems)`` of python-control as a ContinuousSS; its ValueError (sizes, algebraic
+    loop) as a ConfigError naming the connection."""
+    try:
+        return ContinuousSS(fn(*systems, **kwargs))
+    except ValueError as exc:
+        sizes = [np.shape(s.D) for s in systems]  # (outputs, inputs) of each
+        raise ConfigError(name, sizes, str(exc)) from exc
 
 
 def series(first: ContinuousSS, second: ContinuousSS) -> ContinuousSS:
-    """``second ∘ first``: the output of ``first`` drives ``second`` (G = G₂ G₁)."""
-    if first.n_outputs != second.n_inputs:
-        raise ConfigError("series", (first.n_outputs, second.n_inputs),
+    """``second ∘ first``: the output of ``first`` drives ``second`` (G = G₂ G₁);
+    ``control.series``, without its promotion of a SISO system to a diagonal MIMO one."""
+    if first.noutputs != second.ninputs:
+        raise ConfigError("series", (first.noutputs, second.ninputs),
                           "outputs of the first must equal inputs of the second")
-    n1, n2 = first.n_states, second.n_states
-    A = np.block([[first.A, np.zeros((n1, n2))], [second.B @ first.C, second.A]])
-    B = np.vstack([first.B, second.B @ first.D])
-    C = np.hstack([second.D @ first.C, second.C])
-    D = second.D @ first.D
-    return ss(A, B, C, D)
+    return _connect("series", control.series, first, second)
 
 
 def parallel(a: ContinuousSS, b: ContinuousSS) -> ContinuousSS:
-    """``a + b``: same input to both, outputs summed."""
-    if (a.n_inputs, a.n_outputs) != (b.n_inputs, b.n_outputs):
-        raise ConfigError("parallel", ((a.n_outputs, a.n_inputs), (b.n_outputs, b.n_inputs)),
+    """``a + b``: same input to both, outputs summed; ``control.parallel``, without its
+    promotion of a SISO system to a diagonal MIMO one."""
+    if (a.ninputs, a.noutputs) != (b.ninputs, b.noutputs):
+        raise ConfigError("parallel", ((a.noutputs, a.ninputs), (b.noutputs, b.ninputs)),
                           "systems must have the same input and output sizes")
-    A = scipy.linalg.block_diag(a.A, b.A)
-    return ss(A, np.vstack([a.B, b.B]), np.hstack([a.C, b.C]), a.D + b.D)
+    return _connect("parallel", control.parallel, a, b)
 
 
 def feedback(forward: ContinuousSS, back: ContinuousSS | None = None,
              sign: int = -1) -> ContinuousSS:
-    """Closed loop ``y = G (r + sign·H y)``; H defaults to the identity (unity feedback).
-
-    Requires ``I − sign·D_G D_H`` to be invertible (no algebraic loop without a solution).
-    """
-    if back is None:
-        p = forward.n_outputs
-        back = ss(np.zeros((0, 0)), np.zeros((0, p)), np.zeros((p, 0)), np.eye(p))
-    G, H = forward, back
-    if H.n_inputs != G.n_outputs or H.n_outputs != G.n_inputs:
-        raise ConfigError("feedback", (H.n_outputs, H.n_inputs), "H must map outputs to inputs")
-    s = float(sign)
-    E = np.eye(G.n_inputs) - s * H.D @ G.D
+    """Closed loop ``y = G (r + sign·H y)``; H defaults to the identity (unity feedback);
+    ``control.feedback``. An algebraic loop ``I − sign·D_H D_G`` that is singular is a
+    ConfigError."""
+    H = np.eye(forward.noutputs) if back is None else back
     try:
-        Ei = np.linalg.inv(E)
-    except np.linalg.LinAlgError as exc:
-        raise ConfigError("feedback", sign, "algebraic loop I − sign·D_H D_G is singular") \
-            from exc
-    # u = Ei (r + s H.C xh + s H.D G.C xg); y = G.C xg + G.D u; ẋh = H.A xh + H.B y
-    Kg = s * Ei @ H.D @ G.C
-    Kh = s * Ei @ H.C
-    A = np.block([
-        [G.A + G.B @ Kg, G.B @ Kh],
-        [H.B @ (G.C + G.D @ Kg), H.A + H.B @ G.D @ Kh],
-    ])
-    B = np.vstack([G.B @ Ei, H.B @ G.D @ Ei])
-    C = np.hstack([G.C + G.D @ Kg, G.D @ Kh])
-    D = G.D @ Ei
-    return ss(A, B, C, D)
+        return ContinuousSS(control.feedback(forward, H, sign=sign))
+    except ValueError as exc:
+        raise ConfigError("feedback", sign, str(exc)) from exc
 
 
 def system_from_dict(spec: Mapping[str, object], field: str = "system") -> ContinuousSS:

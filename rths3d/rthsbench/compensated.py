@@ -17,148 +17,30 @@ Everything else (plant, RK4 steps, converters, noise, force delay, the 8900 N li
 benchmark's (:mod:`.simulate`). With the ``lead`` compensator (the benchmark's G_T) this loop
 reproduces :func:`~.simulate.run_case` (tested).
 
-All trials step together (K tests × 1 channel for the compensator); each step is one numba
-call for the plant and one ``command`` call. A trial stops at the 8900 N force limit or when
-its compensator stops (drift safety), with the reason, keeping the samples up to the stop.
+All trials step together (K tests × 1 channel for the compensator); each step is the
+compiled :func:`~.kernels.measure` (sensors), one ``command`` call and the compiled
+:func:`~.kernels.advance` (PI, force check, plant and numerical RK4 steps) — the kernels that
+:func:`~.simulate.run_case` runs with the phase lead between them. A trial stops at the
+8900 N force limit or when its compensator stops (drift safety), with the reason, keeping the
+samples up to the stop.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
 import numpy as np
-from numba import njit
 
-from ..errors import ConfigError, SafetyStop
+from ..errors import ConfigError
 from ..lti import GroundMotion
 from .config import BenchmarkConfig, load_excitation
 from .plant import PlantParams
-from .simulate import (
-    BenchmarkResult,
-    _controller_coeffs,
-    _finish,
-    _grid,
-    _ground_stages,
-    _noise,
-    _prepare,
-    reference_response,
-)
+from .simulate import BenchmarkResult, _Loop, reference_response
 from .structure import case_matrices
 
 __all__ = ["calibrated_config", "calibration_record", "run_compensated"]
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _ad(v: float, q: float, sat: float) -> float:
-    if v > sat:
-        v = sat
-    elif v < -sat:
-        v = -sat
-    if q > 0.0:
-        if v >= 0.0:
-            v = q * math.floor(v / q + 0.5)
-        else:
-            v = -q * math.floor(-v / q + 0.5)
-    return v
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _da(v: float, q: float, sat: float) -> float:
-    if q > 0.0:
-        if v >= 0.0:
-            v = q * math.floor(v / q + 0.5)
-        else:
-            v = -q * math.floor(-v / q + 0.5)
-    if v > sat:
-        v = sat
-    elif v < -sat:
-        v = -sat
-    return v
-
-
-@njit(cache=True, nogil=True)
-def _measure(k, alive, Z, P, mem, spec, nD, nF, conv, zc, zdc, zmc, XM, XN, FM):
-    """Sensors at t_k and the compensator's inputs. ``mem`` (K, 9): x_{k−1}, v_{k−1},
-    f_{k−1}, e_{k−1}, y_pi,k−1, then x, v, x_m, f_meas at t_k; ``spec`` (K, 3): k_e, c_e,
-    m_e; ``conv`` = [inv_h, q, sat]."""
-    inv_h, q, sat = conv[0], conv[1], conv[2]
-    for i in range(Z.shape[0]):
-        if not alive[i]:
-            continue
-        x = P[i, 3]
-        v = (x - mem[i, 0]) * inv_h
-        a = (v - mem[i, 1]) * inv_h
-        xm = x + nD[k]
-        fm = spec[i, 0] * x + spec[i, 1] * v + spec[i, 2] * a + nF[k]
-        mem[i, 5] = x
-        mem[i, 6] = v
-        mem[i, 7] = xm
-        mem[i, 8] = fm
-        XM[k, i] = xm
-        XN[k, i, 0] = Z[i, 0]
-        XN[k, i, 1] = Z[i, 1]
-        XN[k, i, 2] = Z[i, 2]
-        FM[k, i] = fm
-        zc[i, 0] = _ad(Z[i, 0], q, sat)
-        zdc[i, 0] = Z[i, 3]
-        zmc[i, 0] = _ad(xm, q, sat)
-
-
-@njit(cache=True, nogil=True)
-def _advance(k, yp_raw, alive, stop_at, Z, P, mem, ctrl, conv, limit, force_delay, stage,
-             PhiN, Gag, GF, PhiP, GY, GX, FA, YG, YP):
-    """Controller from the compensator's output, force check, one RK4 step of both parts.
-    ``ctrl`` = [pb0, pb1, pg] (PI), ``stage`` = ẍ_g at t_k, t_k + h/2, t_k + h. Returns the
-    number of trials stopped at the force limit in this step."""
-    q, sat = conv[1], conv[2]
-    pb0, pb1, pg = ctrl[0], ctrl[1], ctrl[2]
-    a0, am, a1 = stage[0], stage[1], stage[2]
-    stopped = 0
-    zn = np.empty(6)
-    pn = np.empty(5)
-    for i in range(Z.shape[0]):
-        if not alive[i]:
-            continue
-        xm = mem[i, 7]
-        yp = _da(yp_raw[i, 0], q, sat)
-        e = _ad(yp - xm, q, sat)
-        ypi = pg * mem[i, 4] + pb0 * e + pb1 * mem[i, 3]
-        ygc = _da(ypi, q, sat)
-        F = P[i, 2]
-        FA[k, i] = F
-        YG[k, i] = ygc
-        YP[k, i] = yp
-        if not (-limit < F < limit):
-            alive[i] = False
-            stop_at[i] = k
-            stopped += 1
-            continue
-        ff = mem[i, 2] if force_delay else mem[i, 8]
-        for r in range(6):
-            s = 0.0
-            for c in range(6):
-                s += PhiN[i, r, c] * Z[i, c]
-            zn[r] = s + GF[i, r] * ff + (Gag[i, r, 0] * a0 + Gag[i, r, 1] * am
-                                         + Gag[i, r, 2] * a1)
-        xprev = mem[i, 0]
-        for r in range(5):
-            s = 0.0
-            for c in range(5):
-                s += PhiP[i, r, c] * P[i, c]
-            pn[r] = s + GY[i, r] * ygc + GX[i, r] * xprev
-        for r in range(6):
-            Z[i, r] = zn[r]
-        for r in range(5):
-            P[i, r] = pn[r]
-        mem[i, 0] = mem[i, 5]
-        mem[i, 1] = mem[i, 6]
-        mem[i, 2] = mem[i, 8]
-        mem[i, 3] = e
-        mem[i, 4] = ypi
-    return stopped
 
 
 def _plants(cfg: BenchmarkConfig, plants: Sequence[PlantParams] | None, n_trials: int,
@@ -200,52 +82,21 @@ def run_compensated(cfg: BenchmarkConfig | None = None, compensator: str | Any =
     else:
         gm = gm.scaled(cfg.intensity)
     K = len(plant_list)
-    N, t = _grid(cfg, gm)
-    stages = np.ascontiguousarray(_ground_stages(cfg, gm, t))
-    prep = [_prepare(cfg, p) for p in plant_list]
-    PhiN = np.ascontiguousarray(np.stack([p[1] for p in prep]))
-    Gag = np.ascontiguousarray(np.stack([p[2] for p in prep]))
-    GF = np.ascontiguousarray(np.stack([p[3] for p in prep]))
-    PhiP = np.ascontiguousarray(np.stack([p[4] for p in prep]))
-    GY = np.ascontiguousarray(np.stack([p[5] for p in prep]))
-    GX = np.ascontiguousarray(np.stack([p[6] for p in prep]))
-    spec = np.array([[p.k_e, p.c_e, p.m_e] for p in plant_list])
-    nD, nF = _noise(cfg, N)
-    nD = np.ascontiguousarray(nD, dtype=float)
-    nF = np.ascontiguousarray(nF, dtype=float)
-    _, _, _, pb0, pb1, pg = (float(v) for v in _controller_coeffs(cfg))
-    ctrl = np.array([pb0, pb1, pg])
-    q, sat = (float(cfg.q), float(cfg.sat)) if cfg.quantize else (0.0, math.inf)
-    conv = np.array([1.0 / cfg.dt, q, sat])
-
+    loop = _Loop(cfg, plant_list, gm)
+    N, t = loop.N, loop.t
     if isinstance(compensator, str):
         comp = build(compensator, K, 1, cfg.dt, params)
     else:
         comp = compensator
         compensator = getattr(comp, "name", type(comp).__name__)
-    Z = np.zeros((K, 6))
-    P = np.zeros((K, 5))
-    mem = np.zeros((K, 9))
-    zc = np.zeros((K, 1))
-    zdc = np.zeros((K, 1))
-    zmc = np.zeros((K, 1))
-    XM = np.zeros((N, K))
-    XN = np.zeros((N, K, 3))
-    FM = np.zeros((N, K))
-    FA = np.zeros((N, K))
-    YG = np.zeros((N, K))
-    YP = np.zeros((N, K))
-    alive = np.ones(K, dtype=bool)
-    stop_at = np.full(K, -1, dtype=np.int64)
+    alive, stop_at = loop.alive, loop.stop_at
     comp_stop_at = np.full(K, -1, dtype=np.int64)
     history: list[tuple[float, dict[str, np.ndarray]]] = []
-    limit = float(cfg.force_limit)
-    fdelay = bool(cfg.force_delay)
     cstopped = comp.stopped
     n_alive = K
     for k in range(N):
-        _measure(k, alive, Z, P, mem, spec, nD, nF, conv, zc, zdc, zmc, XM, XN, FM)
-        yp = comp.command(zc, zdc, zmc)
+        loop.measure(k)
+        yp = comp.command(loop.zc, loop.zdc, loop.zmc)
         if cstopped.any():
             new = cstopped & alive
             if new.any():
@@ -253,12 +104,11 @@ def run_compensated(cfg: BenchmarkConfig | None = None, compensator: str | Any =
                     comp_stop_at[i] = k
                     stop_at[i] = k
                     # the stopping sample keeps its measurements; no command is applied
-                    FA[k, i] = P[i, 2]
+                    loop.FA[k, i] = loop.P[i, 2]
                 alive &= ~new
                 n_alive = int(alive.sum())
         if n_alive:
-            n_alive -= _advance(k, yp, alive, stop_at, Z, P, mem, ctrl, conv, limit, fdelay,
-                                stages[k], PhiN, Gag, GF, PhiP, GY, GX, FA, YG, YP)
+            n_alive -= loop.advance(k, yp)
         if history_every and k % history_every == 0:
             history.append((float(t[k]), {n: v[:, 0].copy()
                                           for n, v in comp.coefficients().items()}))
@@ -266,26 +116,18 @@ def run_compensated(cfg: BenchmarkConfig | None = None, compensator: str | Any =
             progress(k, N)
         if n_alive == 0:
             break
-    ag = stages[:, 0]
     if x_ref is None or x_ref.shape[0] < N:
         m = case_matrices(cfg.case, cfg.plant.m_e, cfg.plant.c_e, cfg.plant.k_e)
         n_ref = N if (stop_at < 0).any() else int(stop_at.max()) + 1
-        x_ref = reference_response(m, ag[:n_ref], cfg.dt, cfg.reference)
+        x_ref = reference_response(m, loop.stages[:n_ref, 0], cfg.dt, cfg.reference)
     coefs = comp.coefficients()
     results = []
-    for i, p in enumerate(plant_list):
+    for i in range(K):
         n = N if stop_at[i] < 0 else int(stop_at[i]) + 1
-        stop = None
-        if comp_stop_at[i] >= 0:
-            stop = comp.stops[i]
-        elif stop_at[i] >= 0:
-            stop = SafetyStop("actuator force |F_act|", abs(FA[n - 1, i]), limit,
-                              float(t[n - 1]), i, "N")
-        # contiguous copies: a trial's result does not keep the (N, K) logs alive
-        res = _finish(replace(cfg, plant=p), p, t, ag, XM[:n, i].copy(), XN[:n, i, :].copy(),
-                      FA[:n, i].copy(), YG[:n, i].copy(), FM[:n, i].copy(), stop, n, x_ref)
+        stop = comp.stops[i] if comp_stop_at[i] >= 0 else loop.force_stop(i)
+        res = loop.result(i, stop, x_ref, copy=True)
         res.compensator = compensator
-        res.y_p = YP[:n, i].copy()
+        res.y_p = loop.YP[:n, i].copy()
         res.coefficients = {name: float(v[i, 0]) for name, v in coefs.items()}
         if history_every:
             res.history = {"t": np.array([h[0] for h in history])}

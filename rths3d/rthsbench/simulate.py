@@ -10,15 +10,17 @@ sample (unit delay), the plant with y_gc held and the CSI derivative block's sta
 RK4 steps are linear, so they are precomputed as matrices (:func:`numerical_step_matrices`,
 :func:`rths3d.rthsbench.plant.plant_step_matrices`).
 
-Two loops share these matrices: a single test in plain Python floats (generated, unrolled code;
-the hot path) and K tests with numpy arrays over tests (perturbed trials).
+The loop runs the compiled per-step kernels of :mod:`.kernels` (written once; the loop with a
+compensator in place of the phase lead, :mod:`.compensated`, calls the same kernels), one
+trial or K trials per call. An independent numpy implementation of the same step over K trials
+(``run_trials(engine="numpy")``) cross-checks them.
 """
 
 from __future__ import annotations
 
+import functools
 import math
-from array import array
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -38,6 +40,7 @@ from ..lti import (
 )
 from ..lti.noise import band_limited_std, normal_sequence, simulink_randn
 from ..metrics.criteria import j_criteria
+from . import kernels
 from .config import BenchmarkConfig, load_excitation
 from .plant import PlantParams, plant_step_matrices
 from .structure import CaseMatrices, case_matrices
@@ -176,11 +179,11 @@ def reference_response(m: CaseMatrices, ag: np.ndarray, dt: float, method: str =
     if method == "foh":
         return lsim_foh(sysr, ag, dt)
     d = c2d(sysr, dt, "zoh")
-    from ..lti.discretize import _recur
+    from ..lti import recur
 
     X = np.zeros((ag.size, 6))
     if ag.size > 1:
-        X[1:] = _recur(d.Ad, np.zeros(6), ag[:-1, None] @ d.Bd.T)
+        X[1:] = recur(d.Ad, np.zeros(6), ag[:-1, None] @ d.Bd.T)
     return X @ d.Cd.T
 
 
@@ -241,91 +244,87 @@ def _ground_stages(cfg: BenchmarkConfig, gm: GroundMotion, t: np.ndarray) -> np.
     return np.stack([a0, gm(t + 0.5 * cfg.dt), gm(t + cfg.dt)], axis=1)
 
 
-# ---------------------------------------------------------------------------------------
-# single test: generated straight-line Python (plain floats, no numpy in the loop)
-
-def _lin(terms: list[tuple[float, str]], extra: str = "") -> str:
-    parts = [f"{float(c)!r}*{v}" for c, v in terms if c != 0.0]
-    if extra:
-        parts.append(extra)
-    return " + ".join(parts) if parts else "0.0"
-
-
-def _conv(var: str, src: str, kind: str, q: float, sat: float, indent: str) -> list[str]:
-    """Lines computing ``var`` = A/D or D/A of ``src`` (saturation ±sat, quantisation q)."""
-    sat_lines = [f"{indent}if {var} > {sat!r}: {var} = {sat!r}",
-                 f"{indent}elif {var} < {-sat!r}: {var} = {-sat!r}"]
-    if q > 0.0:
-        qlines = [f"{indent}if {var} >= 0.0: {var} = {q!r}*_floor({var}/{q!r} + 0.5)",
-                  f"{indent}else: {var} = -{q!r}*_floor(-{var}/{q!r} + 0.5)"]
-    else:
-        qlines = []
-    body = sat_lines + qlines if kind == "ad" else qlines + sat_lines
-    return [f"{indent}{var} = {src}", *body]
-
-
-def _build_scalar_loop(cfg: BenchmarkConfig, Phi_n: np.ndarray, gf: np.ndarray,
-                       Phi_p: np.ndarray, gy: np.ndarray, gx: np.ndarray, conv: bool):
-    p = cfg.plant
-    lb0, lb1, la1, pb0, pb1, pa1 = (float(v) for v in _controller_coeffs(cfg))
-    inv_h = 1.0 / cfg.dt
-    q, sat = (float(cfg.q), float(cfg.sat)) if conv else (0.0, math.inf)
-    I = "        "
-    L = [
-        "def _loop(N, g0, g1, g2, g3, g4, g5, nD, nF, o_xm, o_x1, o_x2, o_x3, o_F, o_ygc,"
-        " o_fm):",
-        "    _floor = floor",
-        "    z0 = z1 = z2 = z3 = z4 = z5 = 0.0",
-        "    p0 = p1 = p2 = p3 = p4 = 0.0",
-        "    xprev = vprev = fdel = u1p = yplp = ep = ypip = 0.0",
-        "    for k in range(N):",
-        f"{I}x = p3",
-        f"{I}v = (x - xprev)*{inv_h!r}",
-        f"{I}a = (v - vprev)*{inv_h!r}",
-        f"{I}xm = x + nD[k]",
-        f"{I}fm = {p.k_e!r}*x + {p.c_e!r}*v + {p.m_e!r}*a + nF[k]",
-    ]
-    if math.isfinite(sat):
-        L += _conv("u1", "z0", "ad", q, sat, I)
-    else:
-        L += [f"{I}u1 = z0"]
-    L += [f"{I}ypl = {lb0!r}*u1 + {lb1!r}*u1p - {la1!r}*yplp"]
-    L += _conv("yp", "ypl", "da", q, sat, I) if math.isfinite(sat) else [f"{I}yp = ypl"]
-    L += _conv("e", "yp - xm", "ad", q, sat, I) if math.isfinite(sat) else [f"{I}e = yp - xm"]
-    L += [f"{I}ypi = {pa1!r}*ypip + {pb0!r}*e + {pb1!r}*ep"]
-    L += _conv("ygc", "ypi", "da", q, sat, I) if math.isfinite(sat) else [f"{I}ygc = ypi"]
-    L += [
-        f"{I}o_xm[k] = xm; o_x1[k] = z0; o_x2[k] = z1; o_x3[k] = z2",
-        f"{I}o_F[k] = p2; o_ygc[k] = ygc; o_fm[k] = fm",
-        f"{I}if not ({-cfg.force_limit!r} < p2 < {cfg.force_limit!r}):",
-        f"{I}    return k, p2",
-    ]
-    ff = "fdel" if cfg.force_delay else "fm"
-    zs = [f"z{i}" for i in range(6)]
-    for i in range(6):
-        L.append(f"{I}n{i} = " + _lin([(Phi_n[i, j], zs[j]) for j in range(6)]
-                                      + [(gf[i], ff)], f"g{i}[k]"))
-    ps = [f"p{i}" for i in range(5)]
-    for i in range(5):
-        L.append(f"{I}m{i} = " + _lin([(Phi_p[i, j], ps[j]) for j in range(5)]
-                                      + [(gy[i], "ygc"), (gx[i], "xprev")]))
-    L += [
-        f"{I}z0 = n0; z1 = n1; z2 = n2; z3 = n3; z4 = n4; z5 = n5",
-        f"{I}p0 = m0; p1 = m1; p2 = m2; p3 = m3; p4 = m4",
-        f"{I}xprev = x; vprev = v; fdel = fm",
-        f"{I}u1p = u1; yplp = ypl; ep = e; ypip = ypi",
-        "    return N, 0.0",
-    ]
-    ns: dict[str, Any] = {"floor": math.floor}
-    exec(compile("\n".join(L), "<rthsbench loop>", "exec"), ns)  # noqa: S102
-    return ns["_loop"]
-
-
 def _prepare(cfg: BenchmarkConfig, plant: PlantParams):
     m = case_matrices(cfg.case, plant.m_e, plant.c_e, plant.k_e)
     Phi_n, G_ag, gf = numerical_step_matrices(m, cfg.dt, cfg.ground_interp)
     Phi_p, gy, gx = plant_step_matrices(plant, cfg.dt, cfg.derivative)
     return m, Phi_n, G_ag, gf, Phi_p, gy, gx
+
+
+class _Loop:
+    """One run of K plants on a common grid: the step matrices, noise, controller
+    coefficients, loop states and logs that the kernels of :mod:`.kernels` work on."""
+
+    def __init__(self, cfg: BenchmarkConfig, plants: Sequence[PlantParams], gm: GroundMotion):
+        K = len(plants)
+        self.cfg, self.plants = cfg, list(plants)
+        self.N, self.t = _grid(cfg, gm)
+        self.stages = np.ascontiguousarray(_ground_stages(cfg, gm, self.t))
+        prep = [_prepare(cfg, p) for p in plants]
+        # Φ_n, G_ag, g_f, Φ_p, g_y, g_x stacked over plants
+        self.mats = tuple(np.ascontiguousarray(np.stack([p[j] for p in prep]))
+                          for j in range(1, 7))
+        self.spec = np.array([[p.k_e, p.c_e, p.m_e] for p in plants])
+        nD, nF = _noise(cfg, self.N)
+        self.nD = np.ascontiguousarray(nD, dtype=float)
+        self.nF = np.ascontiguousarray(nF, dtype=float)
+        lb0, lb1, la1, pb0, pb1, pg = (float(v) for v in _controller_coeffs(cfg))
+        self.lead = np.array([lb0, lb1, la1])
+        self.ctrl = np.array([pb0, pb1, pg])
+        q, sat = (float(cfg.q), float(cfg.sat)) if cfg.quantize else (0.0, math.inf)
+        self.conv = np.array([1.0 / cfg.dt, q, sat])
+        self.limit = float(cfg.force_limit)
+        self.force_delay = bool(cfg.force_delay)
+        self.Z, self.P = np.zeros((K, 6)), np.zeros((K, 5))
+        self.mem, self.hist = np.zeros((K, kernels.MEM)), np.zeros((K, 2))
+        self.zc, self.zdc, self.zmc, self.yp = (np.zeros((K, 1)) for _ in range(4))
+        self.work = np.zeros(11)
+        N = self.N
+        self.XM, self.XN, self.FM = np.zeros((N, K)), np.zeros((N, K, 3)), np.zeros((N, K))
+        self.FA, self.YG, self.YP = np.zeros((N, K)), np.zeros((N, K)), np.zeros((N, K))
+        self.alive = np.ones(K, dtype=bool)
+        self.stop_at = np.full(K, -1, dtype=np.int64)
+        # the kernels with everything but the step (and the command) bound once
+        self.measure: Callable[[int], None] = functools.partial(
+            kernels.measure, self.alive, self.Z, self.P, self.mem, self.spec, self.nD,
+            self.nF, self.conv, self.zc, self.zdc, self.zmc, self.XM, self.XN, self.FM)
+        """``measure(k)``: sensors at t_k; the compensator's inputs in ``zc``, ``zdc``,
+        ``zmc``."""
+        self.advance: Callable[[int, np.ndarray], int] = functools.partial(
+            kernels.advance, self.alive, self.stop_at, self.Z, self.P, self.mem, self.ctrl,
+            self.conv, self.limit, self.force_delay, self.stages, *self.mats, self.FA,
+            self.YG, self.YP, self.work)
+        """``advance(k, yp)``: tracking controller from ``yp`` (K, 1), force check, RK4
+        step; the number of trials stopped at the force limit."""
+
+    def run_fixed(self) -> int:
+        """The whole loop with the benchmark's phase lead, compiled; steps run."""
+        return kernels.run_fixed(self.lead, self.hist, self.alive, self.stop_at, self.Z,
+                                 self.P, self.mem, self.spec, self.nD, self.nF, self.conv,
+                                 self.ctrl, self.limit, self.force_delay, self.stages,
+                                 *self.mats, self.zc, self.zdc, self.zmc, self.yp, self.work,
+                                 self.XM, self.XN, self.FM, self.FA, self.YG, self.YP)
+
+    def force_stop(self, i: int) -> SafetyStop | None:
+        """The force-limit stop of trial ``i``, if it stopped."""
+        if self.stop_at[i] < 0:
+            return None
+        k = int(self.stop_at[i])
+        return SafetyStop("actuator force |F_act|", abs(float(self.FA[k, i])), self.limit,
+                          float(self.t[k]), i, "N")
+
+    def result(self, i: int, stop: SafetyStop | None, x_ref: np.ndarray, copy: bool = False
+               ) -> BenchmarkResult:
+        """Trial ``i`` as a :class:`BenchmarkResult` up to its stop (``copy``: contiguous
+        copies, so that the result does not keep the (N, K) logs alive)."""
+        n = self.N if self.stop_at[i] < 0 else int(self.stop_at[i]) + 1
+        cols = [self.XM[:n, i], self.XN[:n, i, :], self.FA[:n, i], self.YG[:n, i],
+                self.FM[:n, i]]
+        if copy:
+            cols = [c.copy() for c in cols]
+        p = self.plants[i]
+        return _finish(replace(self.cfg, plant=p), p, self.t, self.stages[:, 0], *cols, stop,
+                       n, x_ref)
 
 
 def _finish(cfg: BenchmarkConfig, plant: PlantParams, t: np.ndarray, ag: np.ndarray,
@@ -360,27 +359,13 @@ def run_case(cfg: BenchmarkConfig | None = None, data_path: str | None = None,
         gm = load_excitation(cfg.excitation, cfg.intensity, data_path)
     else:
         gm = gm.scaled(cfg.intensity)
-    N, t = _grid(cfg, gm)
-    m, Phi_n, G_ag, gf, Phi_p, gy, gx = _prepare(cfg, cfg.plant)
-    stages = _ground_stages(cfg, gm, t)
-    forcing = stages @ G_ag.T  # (N, 6)
-    g = [forcing[:, i].tolist() for i in range(6)]
-    nD, nF = _noise(cfg, N)
-    loop = _build_scalar_loop(cfg, Phi_n, gf, Phi_p, gy, gx, cfg.quantize)
-    bufs = [array("d", bytes(8 * N)) for _ in range(7)]
-    n_done, f_stop = loop(N, *g, nD.tolist(), nF.tolist(), *bufs)
-    o = [np.frombuffer(b, dtype=float) for b in bufs]
-    stop = None
-    n = N
-    if n_done < N:
-        n = n_done + 1
-        stop = SafetyStop("actuator force |F_act|", abs(f_stop), cfg.force_limit,
-                          float(t[n_done]), 0, "N")
-    ag = stages[:, 0]
+    loop = _Loop(cfg, [cfg.plant], gm)
+    n = loop.run_fixed()
     if x_ref is None or x_ref.shape[0] < n:
-        x_ref = reference_response(m, ag[:n], cfg.dt, cfg.reference)
-    res = _finish(cfg, cfg.plant, t, ag, o[0], np.stack(o[1:4], axis=1), o[4], o[5], o[6],
-                  stop, n, x_ref)
+        m = case_matrices(cfg.case, cfg.plant.m_e, cfg.plant.c_e, cfg.plant.k_e)
+        x_ref = reference_response(m, loop.stages[:n, 0], cfg.dt, cfg.reference)
+    stop = loop.force_stop(0)
+    res = loop.result(0, stop, x_ref)
     if stop is not None and raise_on_stop:
         raise stop
     return res
@@ -398,10 +383,10 @@ def run_trials(cfg: BenchmarkConfig | None = None, n_trials: int = 20, seed: int
     All trials share the sensor-noise realisation of ``cfg``. A trial reaching the force
     limit stops (its result is ``stopped``, truncated); the others go on.
 
-    ``engine="python"`` runs each trial through the generated single-test loop (fastest on
-    one core); ``engine="numpy"`` steps all trials together with arrays over trials (an
-    independent implementation of the same step, used to cross-check the generated code).
-    ``progress(i)`` is called after each finished trial (python engine).
+    ``engine="python"`` runs each trial through the compiled loop of :mod:`.kernels` (the
+    one :func:`run_case` runs); ``engine="numpy"`` steps all trials together with numpy
+    arrays over trials (an independent implementation of the same step, used to cross-check
+    the kernels). ``progress(i)`` is called after each finished trial (python engine).
     """
     cfg = cfg or BenchmarkConfig()
     if plants is None:
