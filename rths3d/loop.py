@@ -192,7 +192,9 @@ class _Group:
         report = progress if callable(progress) else None
         every = control.every if control is not None else (500 if progress else self.N)
         pbar = tqdm(total=self.N, desc=f"{self.base.transfer.kind} ×{self.K}", unit="step",
-                    mininterval=0.5, disable=not progress or report is not None)
+                    mininterval=0.5,
+                    # None: shown on a terminal only (a piped stderr keeps one-line errors)
+                    disable=True if (not progress or report is not None) else None)
         self._f = np.zeros((self.K, self.nd))  # F'_m held over the next step
         t0 = time.perf_counter()
         n = 0

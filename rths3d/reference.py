@@ -98,7 +98,7 @@ def couple_exact(num, part, n_steps: int, *, tol: float = NUMPY_TOL, max_iter: i
     if progress and report is None:
         from tqdm import tqdm
 
-        rng = tqdm(rng, desc="reference", unit="step", mininterval=0.5)
+        rng = tqdm(rng, desc="reference", unit="step", mininterval=0.5, disable=None)
     for n in rng:
         sn = num.get_state()
         ss = spec.get_state()

@@ -18,9 +18,7 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
-import control
 import numpy as np
-import scipy.signal
 
 from ..compensation import build
 from ..effects.blocks import (
@@ -164,6 +162,8 @@ def discretise_tf(num: Sequence[float], den: Sequence[float], dt: float
     den = np.atleast_1d(np.asarray(den, float))
     if den.size < num.size or den[0] == 0:
         raise ConfigError("transfer.den", den.tolist(), "transfer function must be proper")
+    import control  # python-control imports matplotlib: loaded when a model is designed
+
     sys = control.tf2ss(control.tf(num, den))
     if sys.nstates == 0:
         return np.zeros((0, 0)), np.zeros(0), np.zeros(0), float(np.asarray(sys.D)[0, 0])
@@ -174,6 +174,8 @@ def discretise_tf(num: Sequence[float], den: Sequence[float], dt: float
 
 def delay_estimate(num: Sequence[float], den: Sequence[float]) -> float:
     """Low-frequency group delay −dφ/dω at ω → 0 (s) of G(s) = num/den."""
+    import scipy.signal  # scipy.signal costs a second to import: only when asked
+
     w = 1e-3
     _, h = scipy.signal.freqs(num, den, worN=[w])
     return float(-np.angle(h[0]) / w)
