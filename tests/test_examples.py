@@ -13,7 +13,7 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 def _run(tmp_path: Path, script: str, *args: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, str(EXAMPLES / script), *args], cwd=tmp_path,
-                          capture_output=True, text=True, timeout=120)
+                          capture_output=True, text=True, timeout=600)
 
 
 @pytest.mark.parametrize("script", ["12_platform_batch.py", "30_metrics_from_record.py",
