@@ -151,7 +151,7 @@ def plate_pose(q: np.ndarray, home_height: float) -> np.ndarray:
 
 
 @njit
-def leg_setpoints(poses, b, p, hh, home, off, ffg, Lprev, L, ctrl, a0, half, vdt, run):
+def leg_setpoints(poses, b, p, hh, home, off, ffg, Lprev, L, ctrl, a0, half, vdt, run, ik):
     """Inverse kinematics, command limits and leg set-points of K platforms.
 
     Leg i of test k: L = |t + R p_i − b_i| with R = Rz(rz) Ry(ry) Rx(rx) and t the plate
@@ -159,7 +159,8 @@ def leg_setpoints(poses, b, p, hh, home, off, ffg, Lprev, L, ctrl, a0, half, vdt
     (gravity compensation, velocity feed-forward g_ff = kv/(kp ΔT)) written to
     ``ctrl[k, a0 + i]`` for the tests in ``run``. Returns the number of running tests whose
     command leaves the stroke (±``half``) or the speed (|ΔL| ≤ ``vdt``); those keep their
-    set-point and ``Lprev`` (the caller stops them).
+    set-point and ``Lprev`` (the caller stops them). ``ik`` False: the lengths already in
+    ``L`` are the ones to command (per-leg compensation, :attr:`PlatformBatch.leg_hook`).
     """
     bad = 0
     for k in range(poses.shape[0]):
@@ -188,7 +189,7 @@ def leg_setpoints(poses, b, p, hh, home, off, ffg, Lprev, L, ctrl, a0, half, vdt
                 lx = x + r00 * px + r01 * py - b[i, 0]
                 ly = y + r10 * px + r11 * py - b[i, 1]
                 lz = tz + r20 * px + r21 * py - b[i, 2]
-            Li = math.sqrt(lx * lx + ly * ly + lz * lz)
+            Li = math.sqrt(lx * lx + ly * ly + lz * lz) if ik else L[k, i]
             L[k, i] = Li
             # `not <=`: a NaN command stops like an overrun
             if not (abs(Li - home[i]) <= half and abs(Li - Lprev[k, i]) <= vdt):
@@ -420,6 +421,13 @@ class PlatformBatch:
         self._nsub = int(config.substeps)
         self._any_stopped = False
         self._run = np.ones(nsim, dtype=np.bool_)
+        self._norun = np.zeros(nsim, dtype=np.bool_)
+        self.leg_hook = None
+        """Per-leg compensation (``transfer.compensate = "legs"``, set by
+        :mod:`rths3d.transfer.legs`): ``hook(L)`` rewrites in place the desired leg lengths L
+        (K, 6) (m) that the inverse kinematics computed into the lengths to command, before
+        the command limits are checked and the set-points written (allocation-free: it runs
+        every step). None: the set-points of the desired lengths."""
         self._all = np.arange(nsim)
         self._wrows: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self.stopped = np.zeros(nsim, dtype=bool)
@@ -551,9 +559,17 @@ class PlatformBatch:
     def _advance(self) -> None:
         """One interface step from the commanded poses in :attr:`poses` (the hot path)."""
         self._fresh = False
+        if self.leg_hook is not None:
+            # per-leg compensation: the inverse kinematics alone (no test "runs", so nothing
+            # is written or checked), then the hook turns the desired lengths in _L into the
+            # lengths to command; the call below checks and writes those (ik = False)
+            leg_setpoints(self.poses, self._b, self._p, self._hh, self._home, self._off,
+                          self._ffg, self._Lprev, self._L, self._ctrl, self._a0, self._half,
+                          self._vdt, self._norun, True)
+            self.leg_hook(self._L)
         if leg_setpoints(self.poses, self._b, self._p, self._hh, self._home, self._off,
                          self._ffg, self._Lprev, self._L, self._ctrl, self._a0, self._half,
-                         self._vdt, self._run):
+                         self._vdt, self._run, self.leg_hook is None):
             self._command_limits(self._L - self._home, self._L - self._Lprev)
         if not self._any_stopped:
             self.batch.step(nstep=self._nsub)
