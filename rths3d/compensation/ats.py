@@ -333,6 +333,20 @@ class ATSCompensator(BaseCompensator):
     def coefficients(self) -> dict[str, np.ndarray]:
         return {"a0": self.a[:, :, 0], "a1": self.a[:, :, 1], "a2": self.a[:, :, 2]}
 
+    prior_keys = ("a0", "a1", "a2")
+
+    def start_from_delay(self, delay: np.ndarray) -> bool:
+        """(a0, a1, a2) = (1, d, d²/2) per test, the inverse of a pure delay d (s) to
+        second order (ATS_setup.m's "a1 ≈ expected delay, a2 = a1²/2"), within the bounds."""
+        d = np.broadcast_to(np.asarray(delay, dtype=float).reshape(-1, 1), (self.K, self.n))
+        a = np.stack([np.ones_like(d), d, 0.5 * d * d], axis=-1)
+        self.a_init[:] = np.clip(a, self.lo, self.hi)
+        self.reset()
+        return True
+
+    def history(self) -> np.ndarray:
+        return self.a
+
     def estimates(self) -> dict[str, np.ndarray]:
         """The latest unbounded least-squares estimates (K, n)."""
         return {"a0": self.est[:, :, 0], "a1": self.est[:, :, 1], "a2": self.est[:, :, 2]}

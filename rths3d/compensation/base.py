@@ -370,6 +370,29 @@ class BaseCompensator:
     def coefficients(self) -> dict[str, np.ndarray]:
         return {}
 
+    prior_keys: ClassVar[tuple[str, ...]] = ()
+    """Config keys that :meth:`start_from_delay` sets (a scene giving any of them keeps its
+    own initial values)."""
+
+    def start_from_delay(self, delay: np.ndarray) -> bool:
+        """Start from the inverse of a pure delay: ``delay`` (K,) s per test, the transfer
+        system's predicted delay (its ``transfer_meta["predicted_delay"]``). Sets the
+        initial (adaptive) coefficients and resets; False for compensators without any
+        (they keep their configuration)."""
+        return False
+
+    def history(self) -> np.ndarray | None:
+        """A live (K, n, w) array that holds what the coefficients are made of, updated in
+        place by :meth:`command` (the loop copies it after every step to record the
+        coefficients over time, :meth:`history_coefficients` turns the copies into
+        coefficients). None: no coefficients."""
+        return None
+
+    def history_coefficients(self, states: np.ndarray) -> dict[str, np.ndarray]:
+        """The coefficients (..., K, n) from copies (..., K, n, w) of :meth:`history`, in
+        the order of :meth:`coefficients`; by default state i is the i-th coefficient."""
+        return {name: states[..., i] for i, name in enumerate(self.coefficients())}
+
     def compiled(self) -> tuple[tuple[Any], np.ndarray, np.ndarray] | None:
         """((kernel,), params, state) of a compensator whose step is one :data:`COMP_SIG`
         kernel (the compiled loop runs it); None for those stepped from Python."""

@@ -145,15 +145,15 @@ def design_inverse(num, den, dt: float, name: str = "inverse"
 
 @njit(cache=True, nogil=True)
 def _inverse_step(z, zd, u, sos_c, sos_f, zi_c, zi_f, prev, T, c2, dt_inv):
-    """w = z + T ż + c2 z̈; u = w + F(C w − w). ``prev`` (K, n, 2): ż of the last call and
-    whether there was one (z̈ = 0 on the first call)."""
+    """w = z + T ż + c2 z̈; u = w + F(C w − w) (T, c2: (K,), per test). ``prev`` (K, n, 2):
+    ż of the last call and whether there was one (z̈ = 0 on the first call)."""
     K, n = z.shape
     for k in range(K):
         for j in range(n):
             zdd = (zd[k, j] - prev[k, j, 0]) * dt_inv if prev[k, j, 1] > 0.0 else 0.0
             prev[k, j, 0] = zd[k, j]
             prev[k, j, 1] = 1.0
-            w = z[k, j] + T * zd[k, j] + c2 * zdd
+            w = z[k, j] + T[k] * zd[k, j] + c2[k] * zdd
             v = sos_step(sos_c, zi_c[k, j], w)
             u[k, j] = w + sos_step(sos_f, zi_f[k, j], v - w)
 
@@ -170,10 +170,12 @@ class InverseCore:
               config.filter_order == 0 or config.filter_hz < 0.5 / dt,
               f"must be below the Nyquist frequency {0.5 / dt:g} Hz")
         num, den = model_of(config)
+        self.model = (num, den)
         self.sos_c, _, self.report = design_inverse(num, den, dt, name)
         self.sos_f = butter_sos(config.filter_order, config.filter_hz, dt)
-        self.T = float(config.delay)
-        self.c2 = 0.5 * self.T**2 if config.delay_order == 2 else 0.0
+        self.order = config.delay_order
+        self.T = np.full(K, float(config.delay))
+        self.c2 = 0.5 * self.T**2 if self.order == 2 else np.zeros(K)
         self.zi_c = np.zeros((K, n, self.sos_c.shape[0], 2))
         self.zi_f = np.zeros((K, n, self.sos_f.shape[0], 2))
         self.prev = np.zeros((K, n, 2))
@@ -183,6 +185,17 @@ class InverseCore:
         self.zi_c[:] = 0.0
         self.zi_f[:] = 0.0
         self.prev[:] = 0.0
+
+    def start_from_delay(self, delay: np.ndarray) -> None:
+        """T per test = what the model G leaves of ``delay`` (K,) s, the transfer system's
+        predicted delay from command to measurement: delay − G's low-frequency group delay
+        + ΔT/2 (the held-step map z·G_zoh that H⁻¹ inverts leads G by half a step), ≥ 0."""
+        from ..transfer.actuators import delay_estimate
+
+        rest = np.asarray(delay, dtype=float).reshape(-1) - delay_estimate(*self.model) \
+            + 0.5 * self.dt
+        self.T[:] = np.maximum(rest, 0.0)
+        self.c2[:] = 0.5 * self.T**2 if self.order == 2 else 0.0
 
     def __call__(self, z: np.ndarray, zdot: np.ndarray, out: np.ndarray) -> np.ndarray:
         _inverse_step(z, zdot, out, self.sos_c, self.sos_f, self.zi_c, self.zi_f, self.prev,
@@ -205,6 +218,15 @@ class InverseCompensator(BaseCompensator):
     def reset(self) -> None:
         super().reset()
         self.core.reset()
+
+    prior_keys = ("delay",)
+
+    def start_from_delay(self, delay: np.ndarray) -> bool:
+        """The model's pure delay T = what the model leaves of ``delay`` (per test; see
+        :meth:`InverseCore.start_from_delay`)."""
+        self.core.start_from_delay(delay)
+        self.reset()
+        return True
 
     def command(self, z: np.ndarray, zdot: np.ndarray, z_meas: np.ndarray) -> np.ndarray:
         self.core(z, zdot, self.u)

@@ -156,3 +156,15 @@ class ModelBasedCompensator(BaseCompensator):
 
     def coefficients(self) -> dict[str, np.ndarray]:
         return {"u_fb": self.fb}
+
+    def history(self) -> np.ndarray:
+        return self.fb[..., None]
+
+    prior_keys = ("delay",)
+
+    def start_from_delay(self, delay: np.ndarray) -> bool:
+        """The model's pure delay T = what the model leaves of ``delay`` (per test; see
+        :meth:`InverseCore.start_from_delay`)."""
+        self.core.start_from_delay(delay)
+        self.reset()
+        return True

@@ -87,6 +87,9 @@ class PolynomialCompensator(BaseCompensator):
     def coefficients(self) -> dict[str, np.ndarray]:
         return {"tau": self._tau}
 
+    def history(self) -> np.ndarray:
+        return self._tau[..., None]
+
 
 def calibrate(u: np.ndarray, z_meas: np.ndarray, dt: float,
               config: PolynomialConfig | None = None) -> PolynomialConfig:

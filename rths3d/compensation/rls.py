@@ -296,6 +296,38 @@ class RLSCompensator(BaseCompensator):
         self.calls += 1
         return self.u
 
+    prior_keys = ("theta0",)
+
+    def start_from_delay(self, delay: np.ndarray) -> bool:
+        """θ = the Lagrange extrapolation of the target d ahead (s), per test, through the
+        first three taps (second order, as ATS's a2 = a1²/2; two taps: first order, one
+        tap: θ = [1]): DC gain 1 and lead d. The covariance stays p0·I, so RLS refines θ
+        from there. On the platform a spacing of about half the delay keeps the
+        extrapolation's gain near 1 up to the part's resonance (docs/compensation.md)."""
+        from .polynomial import lagrange_weights
+
+        d = np.asarray(delay, dtype=float).reshape(-1)
+        N = self.config.taps
+        order = min(N - 1, 2)
+        th = np.zeros((self.K, self.n, N))
+        for k in range(self.K):
+            th[k, :, :order + 1] = lagrange_weights(float(d[k]), self.sp * self.dt, order)
+        self.theta_init = th
+        self.reset()
+        return True
+
+    def history(self) -> np.ndarray:
+        return self.used
+
+    def history_coefficients(self, states: np.ndarray) -> dict[str, np.ndarray]:
+        N = states.shape[-1]
+        out = {f"theta{i}": states[..., i] for i in range(N)}
+        g = states.sum(axis=-1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out["gain"] = g
+            out["lead"] = -(states @ np.arange(N, dtype=float)) * self.sp * self.dt / g
+        return out
+
     def coefficients(self) -> dict[str, np.ndarray]:
         th = self.used
         out = {f"theta{i}": th[:, :, i] for i in range(th.shape[2])}

@@ -65,6 +65,9 @@ class VelocityCompensator(BaseCompensator):
     def coefficients(self) -> dict[str, np.ndarray]:
         return {"tau": self.tau}
 
+    def history(self) -> np.ndarray:
+        return self.tau[..., None]
+
 
 def calibrate(u: np.ndarray, z_meas: np.ndarray, dt: float,
               config: VelocityConfig | None = None) -> VelocityConfig:
