@@ -13,6 +13,8 @@ from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 __all__ = [
+    "COMPENSATE",
+    "COMP_INIT",
     "ExcitationConfig",
     "ExperimentConfig",
     "Matrix",
@@ -25,6 +27,11 @@ __all__ = [
 ]
 
 Matrix = tuple[tuple[float, ...], ...]
+
+COMPENSATE = ("interface", "legs")
+"""Where a compensator acts (``transfer.compensate``): per interface DOF, or per leg."""
+COMP_INIT = ("predicted", "given")
+"""How adaptive and model-based compensators start (``transfer.comp_init``)."""
 
 
 @dataclass(frozen=True)
@@ -118,7 +125,12 @@ class TransferConfig:
     ``velocity`` adds ``comp_time``·ż to the command; ``polynomial`` extrapolates the command
     ``comp_time`` ahead with a polynomial of ``poly_order`` through the last samples; any
     other registered compensator (``ats``, ``rls``, ``inverse``, ``model_based``, ``lead``)
-    takes its parameters from ``compensator``.
+    takes its parameters from ``compensator``. ``compensate``: where the compensator acts,
+    ``interface`` (one channel per interface DOF, any transfer system) or ``legs`` (the
+    Stewart platform's six leg lengths, one channel per leg: decentralised compensation).
+    ``comp_init``: the initial coefficients of the adaptive and model-based compensators,
+    ``predicted`` (from the transfer system's predicted delay, unless ``compensator`` sets
+    them) or ``given`` (the compensator's own defaults and ``compensator``).
     ``kp``, ``kv`` (N/m, N·s/m), ``timeconst`` (s), ``velocity_ff`` and ``substeps`` tune the
     Stewart platform's leg servos; the ``lti`` path with the identified model follows
     ``timeconst`` and ``velocity_ff`` (with kv/kp) too, by exchanging the identification run's
@@ -140,6 +152,8 @@ class TransferConfig:
     compensator: tuple[tuple[str, Any], ...] = ()
     """The compensator's own parameters (the ``[transfer.compensator]`` table, sorted
     key–value pairs; see :mod:`rths3d.compensation`)."""
+    compensate: str = "interface"
+    comp_init: str = "predicted"
 
 
 @dataclass(frozen=True)

@@ -21,8 +21,10 @@ from typing import Any
 
 import numpy as np
 
-from .compensation import compensator_names, config_from_dict
+from .compensation import COMPENSATORS, compensator_names, config_from_dict
 from .config import (
+    COMP_INIT,
+    COMPENSATE,
     ExcitationConfig,
     ExperimentConfig,
     Matrix,
@@ -39,6 +41,7 @@ from .numerical.modal import coupled_fastest_eigenfrequency
 from .platform.geometry import DEFAULT_GEOMETRY
 from .record import DOFS
 from .transfer import transfer_class, transfer_kinds
+from .transfer.commands import compensator_params
 
 __all__ = [
     "ExcitationConfig",
@@ -272,10 +275,28 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
         "kp": pos, "kv": nonneg, "timeconst": nonneg})
     transfer_class(tr.kind)  # a ConfigError naming the registered kinds
     _choice("transfer.compensation", tr.compensation, compensator_names())
+    _choice("transfer.compensate", tr.compensate, COMPENSATE)
+    _choice("transfer.comp_init", tr.comp_init, COMP_INIT)
+    if tr.compensate == "legs" and not getattr(transfer_class(tr.kind), "leg_compensation",
+                                               False):
+        raise ConfigError("transfer.compensate", tr.compensate, "per-leg compensation needs "
+                          f"a transfer system with legs, e.g. transfer.kind = 'stewart' "
+                          f"(this scene: {tr.kind!r})")
     if comp_table:
-        # checked by the compensator's own configuration (names, types, ranges)
-        config_from_dict(tr.compensation, comp_table, field="transfer.compensator")
-        tr = replace(tr, compensator=tuple(sorted(comp_table.items())))
+        # checked by the compensator's own configuration (names, types, ranges); a sub-table
+        # named after a compensator holds that one's settings (used when it is chosen)
+        items = []
+        for key, value in sorted(comp_table.items()):
+            if key in COMPENSATORS:
+                if not isinstance(value, Mapping):
+                    raise ConfigError(f"transfer.compensator.{key}", value, "must be a table "
+                                      f"of the {key!r} compensator's parameters")
+                config_from_dict(key, value, field=f"transfer.compensator.{key}")
+                value = tuple(sorted(value.items()))
+            items.append((key, value))
+        config_from_dict(tr.compensation, compensator_params(tr.compensation, comp_table),
+                         field="transfer.compensator")
+        tr = replace(tr, compensator=tuple(items))
     if tr.substeps < 1 or tr.substeps > 100:
         raise ConfigError("transfer.substeps", tr.substeps, "must be in 1…100")
     if tr.poly_order < 1 or tr.poly_order > 4:
@@ -446,7 +467,10 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
         out[sec] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in d.items()
                     if not (isinstance(v, float) and math.isnan(v))}
     tr = out["transfer"]
-    tr["compensator"] = {k: (list(v) if isinstance(v, tuple) else v)
+    def raw(v: Any) -> Any:
+        return list(v) if isinstance(v, tuple) else v
+
+    tr["compensator"] = {k: ({kk: raw(vv) for kk, vv in v} if k in COMPENSATORS else raw(v))
                          for k, v in scene.transfer.compensator}
     if not tr["compensator"]:
         del tr["compensator"]

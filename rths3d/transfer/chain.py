@@ -10,6 +10,7 @@ kernels.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Hashable, Mapping, Sequence
 from typing import Any, ClassVar
 
@@ -20,7 +21,7 @@ from ..config import Scene
 from ..effects.blocks import Chain
 from ..experiment import build_part_model, part_class
 from .base import CompiledTransfer, RecordSignal, sensor_key, setting
-from .commands import compensator_key, compensator_of
+from .commands import compensation_record, compensator_key, compensator_of
 from .sensor import sensor_chain
 
 __all__ = ["ChainTransfer"]
@@ -53,6 +54,9 @@ class ChainTransfer:
         self.reasons = [""] * K
         self.part_model = "numpy" if part.compiled() is not None else "mujoco"
         """The part's model, ``numpy`` or ``mujoco`` (the reference uses the same)."""
+        self.signals = compensation_record(self.scenes, compensator, self.scenes[0].dofs,
+                                           self.metas)
+        """``comp.<coefficient>.<dof>``: the compensator's coefficients over time."""
 
     # ------------------------------------------------------------------ building
     @classmethod
@@ -74,8 +78,8 @@ class ChainTransfer:
               specimen: str = "auto") -> ChainTransfer:
         base = scenes[0]
         n = len(base.dofs)
-        comp = compensator_of(scenes, n)
         act, metas = cls.actuator_chain(scenes, n)
+        comp = compensator_of(scenes, n, [m.get("predicted_delay", math.nan) for m in metas])
         part = build_part_model([s.experiment for s in scenes], base.dofs, base.dt,
                                 model=specimen, nthread=nthread)
         model = "numpy" if part.compiled() is not None else "mujoco"

@@ -26,4 +26,4 @@ class DelayTransfer(ChainTransfer):
         K = len(scenes)
         taus = [s.transfer.delay for s in scenes]
         block = DelayBlock(K, n, np.repeat(taus, n), scenes[0].dt)
-        return Chain(K, n, [block]), [{"delay": t} for t in taus]
+        return Chain(K, n, [block]), [{"delay": t, "predicted_delay": t} for t in taus]

@@ -21,4 +21,4 @@ class IdealTransfer(ChainTransfer):
     @classmethod
     def actuator_chain(cls, scenes: Sequence[Scene], n: int
                        ) -> tuple[Chain, list[dict[str, Any]]]:
-        return Chain(len(scenes), n, []), [{} for _ in scenes]
+        return Chain(len(scenes), n, []), [{"predicted_delay": 0.0} for _ in scenes]

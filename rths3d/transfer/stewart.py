@@ -13,7 +13,8 @@ from ..platform.model import ActuatorConfig, PlatformConfig, predicted_delay
 from ..platform.sim import PlatformBatch, plate_pose
 from ..record import DOFS
 from .base import RecordSignal, register_transfer, sensor_key, setting
-from .commands import compensator_key, compensator_of
+from .commands import compensation_record, compensator_key
+from .legs import platform_compensator
 from .sensor import sensor_chain
 
 __all__ = ["StewartTransfer", "platform_config"]
@@ -40,6 +41,8 @@ class StewartTransfer:
     """
 
     kind: ClassVar[str] = "stewart"
+    leg_compensation: ClassVar[bool] = True
+    """It has legs: ``transfer.compensate = "legs"`` compensates each (:mod:`.legs`)."""
 
     def __init__(self, scenes: Sequence[Scene], nthread: int = 0):
         self.scenes = list(scenes)
@@ -56,7 +59,9 @@ class StewartTransfer:
         self.sim = PlatformBatch(cfg, nsim=K, nthread=nthread or 2, payload_xml=variants[0][1],
                                  world_xml=variants[0][2], variants=None if one else variants)
         self.idx = np.array([DOFS.index(d) for d in base.dofs], dtype=np.int64)
-        self.compensator = compensator_of(self.scenes, self.n_if)
+        # per interface DOF, or per leg through the platform's leg hook (transfer.compensate)
+        self.compensator, comp_channels = platform_compensator(
+            self.scenes, self.sim, self.idx, [predicted_delay(v[0], 1.0) for v in variants])
         self.sensor = sensor_chain(self.scenes, self.n_if)
         self.pose_cmd = self.sim.poses
         self._f = np.zeros((K, self.n_if))
@@ -84,6 +89,8 @@ class StewartTransfer:
 
         self.metas = [meta_of(s, v[0]) for s, v in zip(self.scenes, variants, strict=True)]
         """Per-test metadata (leg-servo settings and the delay they predict)."""
+        self.signals += compensation_record(self.scenes, self.compensator, comp_channels,
+                                            self.metas)
 
     @classmethod
     def build(cls, scenes: Sequence[Scene], *, nthread: int = 0,
