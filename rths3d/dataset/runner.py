@@ -19,7 +19,7 @@ from typing import Any
 
 from ..errors import RthsError
 from .spec import SweepSpec
-from .table import FEATURE, MEASURE, PARAM, SET_1, TARGET, TARGETS
+from .table import COMP, FEATURE, MEASURE, PARAM, SET_1, TARGET, TARGETS, compensator_columns
 
 THREADS_ENV = "RTHS3D_THREADS"
 """Environment variable: threads of a batch's MuJoCo thread pool (0 or unset: 2). Local
@@ -65,10 +65,11 @@ def record_features(record) -> dict[str, float]:
 
 
 def _row(test: dict[str, Any], status: str, reason: str, measures: dict[str, float],
-         all_params: Sequence[str]) -> dict[str, Any]:
+         all_params: Sequence[str], comp: dict[str, Any] | None = None) -> dict[str, Any]:
     row: dict[str, Any] = {"test_id": test["test_id"], "family": test["family"],
                            "scene": test["scene"], "transfer": test.get("transfer") or "",
                            "seed": int(test["seed"]), "status": status, "reason": reason}
+    row.update(comp or {})
     for k in all_params:
         v = test["params"].get(k)
         row[PARAM + k] = math.nan if v is None else _param_value(v)
@@ -140,10 +141,15 @@ def _run_rows(spec: SweepSpec, tests: list[dict[str, Any]], records_dir: str | N
                     results.append(exc)
         for i, res in zip(idx, results, strict=True):
             if isinstance(res, Exception):
-                rows[i] = _row(tests[i], "error", str(res), {}, all_params)
+                # a test that did not run: its compensator as its parameters name it
+                name = tests[i]["params"].get("transfer.compensation",
+                                              base.transfer.compensation)
+                rows[i] = _row(tests[i], "error", str(res), {}, all_params,
+                               {COMP + "name": str(name)})
                 continue
             status, reason, meas = _measure(res)
-            rows[i] = _row(tests[i], status, reason, meas, all_params)
+            rows[i] = _row(tests[i], status, reason, meas, all_params,
+                           compensator_columns(res.record))
             if records_dir:
                 res.record.save(Path(records_dir) / f"{tests[i]['test_id']}.parquet")
     return rows  # type: ignore[return-value]

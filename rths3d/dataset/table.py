@@ -18,6 +18,12 @@ Column families of a sweep table (one row per test):
     every other measure of the record, among them the bench load ``stroke_peak`` (m),
     ``velocity_peak`` (m/s) and ``force_peak`` (N) that :func:`within_ratings` compares
     with a bench's ratings.
+``comp_name``, ``comp_mode``, ``comp_<coef>_final``, ``comp_<coef>_final.<channel>``
+    the test's compensator (``transfer.compensation``), where it acted (``interface`` or
+    ``legs``) and its coefficients at the end of the test (at its stop, for a stopped
+    one) per channel (interface DOF or ``leg0``…``leg5``) and as the mean over the channels
+    (units of the coefficient: ATS a1 in s, a2 in s², RLS lead in s, …; see
+    docs/compensation.md). NaN where a compensator has no such coefficient.
 """
 
 from __future__ import annotations
@@ -42,9 +48,11 @@ RATINGS: dict[str, tuple[str, str]] = {
 }
 """Bench rating → (bench-load measure it bounds, unit); the names of :class:`SafetyLimits`."""
 DEFAULT_TARGET = "e_rel_ref"
-__all__ = ["DEFAULT_TARGET", "FEATURE", "FEATURE_SETS", "PARAM", "SET_1", "SET_2", "SET_3",
-           "TARGET", "TARGETS", "feature_names", "has_params", "input_column",
-           "param_column", "parse_features", "parse_ratings", "training_data", "within_ratings"]
+COMP = "comp_"
+__all__ = ["COMP", "DEFAULT_TARGET", "FEATURE", "FEATURE_SETS", "PARAM", "SET_1", "SET_2",
+           "SET_3", "TARGET", "TARGETS", "compensator_columns", "feature_names", "has_params",
+           "input_column", "param_column", "parse_features", "parse_ratings", "training_data",
+           "within_ratings"]
 
 
 def parse_feature_sets(text: str, field: str = "--features") -> tuple[int, ...]:
@@ -73,6 +81,32 @@ def parse_features(text: str, field: str = "--features") -> int | tuple[str, ...
         _feature_names(int(text), field=field)  # 1, 2 or 3, else the error
         return int(text)
     return _feature_names([n.strip() for n in text.split(",") if n.strip()], field=field)
+
+
+def compensator_columns(record: Any) -> dict[str, Any]:
+    """The compensator columns of a test's row (module docstring) from its record: the
+    name and mode from ``meta["transfer_meta"]["compensator"]`` (else the scene
+    parameters), the final coefficients from the last sample of its ``comp.<coef>.<channel>``
+    columns."""
+    meta = record.meta or {}
+    cm = (meta.get("transfer_meta") or {}).get("compensator") or {}
+    params = meta.get("params") or {}
+    out: dict[str, Any] = {
+        COMP + "name": str(cm.get("name", params.get("transfer.compensation", "none"))),
+        COMP + "mode": str(cm.get("compensate", params.get("transfer.compensate",
+                                                            "interface")))}
+    per: dict[str, list[float]] = {}
+    for col, values in record.columns.items():
+        if not col.startswith("comp.") or not len(values):
+            continue
+        coef, _, channel = col[5:].partition(".")
+        v = float(values[-1])
+        v = v if math.isfinite(v) else math.nan
+        out[f"{COMP}{coef}_final.{channel}"] = v
+        per.setdefault(coef, []).append(v)
+    for coef, vs in per.items():
+        out[f"{COMP}{coef}_final"] = float(np.mean(vs))
+    return out
 
 
 def param_column(name: str) -> str:

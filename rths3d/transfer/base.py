@@ -52,7 +52,8 @@ class RecordSignal:
     source: np.ndarray
     convert: Callable[[np.ndarray], np.ndarray] | None = None
     initial: np.ndarray | None = None
-    """The (w,) value of every row before the first step (default zeros)."""
+    """The (w,) value of every row before the first step, or (K, w) one per test (default
+    zeros)."""
 
     @property
     def columns(self) -> list[str]:
