@@ -24,8 +24,8 @@ from rths3d.viz.kinematics import (
     rotation_matrix,
     transform_points,
 )
-from rths3d.viz.panels import history_data, ssp_data, stride, window
-from rths3d.viz.stream import channels, stream_dofs
+from rths3d.viz.panels import coefficient_data, history_data, ssp_data, stride, window
+from rths3d.viz.stream import channels, coefficient_columns, stream_dofs
 from rths3d.viz.wire import HeadlessClient
 
 DT = 1e-3
@@ -206,6 +206,64 @@ def test_buffer_from_record_round_trips(record):
     np.testing.assert_array_equal(back.t, record.t)
     for k, v in record.columns.items():
         np.testing.assert_array_equal(back.columns[k], v)
+
+
+def compensated_record(duration: float = 3.0) -> Record:
+    """The delayed-sine record with a per-leg compensator's coefficients: a1 of leg i rises
+    from 5 ms to (5 + i) ms over the record, a0 stays 1 (the columns the loop writes)."""
+    rec = delayed_sine_record(duration)
+    t = rec.t
+    for i in range(6):
+        rec.columns[f"comp.a0.leg{i}"] = np.ones_like(t)
+        rec.columns[f"comp.a1.leg{i}"] = 0.005 + 0.001 * i * t / t[-1]
+    rec.meta["transfer_meta"] = {"compensator": {"name": "ats", "compensate": "legs"}}
+    return rec
+
+
+def test_coefficient_columns_and_data():
+    """The compensator's columns are found once per coefficient, channels in column order;
+    the plot data is (t, one series per channel) over the rows asked."""
+    buf = buffer_from_record(compensated_record())
+    cols = coefficient_columns(buf.index)
+    assert list(cols) == ["a0", "a1"]
+    assert [ch for ch, _ in cols["a1"]] == [f"leg{i}" for i in range(6)]
+    rows = stride(100, 900, 400)
+    t, *legs = coefficient_data(buf.data, buf.index["t"], cols["a1"], rows)
+    np.testing.assert_array_equal(t, buf.data[rows, 0])
+    for i, series in enumerate(legs):
+        np.testing.assert_array_equal(series, buf.data[rows, buf.index[f"comp.a1.leg{i}"]])
+    assert coefficient_columns(buffer_from_record(delayed_sine_record()).index) == {}
+
+
+def test_viewer_shows_the_coefficients_over_time():
+    """Replaying a record with a per-leg compensator, a browser-like client receives a
+    panel of a1 (s) over time with one series per leg whose points are the recorded
+    (t, a1) pairs; choosing a0 shows that coefficient instead."""
+    rec = compensated_record()
+    v = Viewer(buffer_from_record(rec), port=0, rate=30).start()
+    try:
+        with HeadlessClient(v.port) as client:
+            time.sleep(1.5)
+            with v._lock:
+                v.coef_dropdown.value = "a0"
+                v._on_coef(None)
+            time.sleep(0.8)
+            msgs = client.snapshot()
+    finally:
+        v.stop()
+    assert any(m["type"] == "GuiFolderMessage" and "Compensator: ats (legs)" in
+               str(m["props"].get("label")) for m in msgs)
+    uuid = _uplot_uuid(msgs, "a1 (s) over time")
+    sent = [m["updates"]["data"] for m in msgs if m["type"] == "GuiUpdateMessage"
+            and m["uuid"] == uuid and "data" in m["updates"]]
+    assert len(sent) >= 5
+    t, *legs = sent[-1]
+    assert len(legs) == 6 and t.size > 10
+    for i, series in enumerate(legs):
+        want = np.interp(t, rec.t, rec.columns[f"comp.a1.leg{i}"])
+        np.testing.assert_allclose(series, want, rtol=1e-12)
+    a0 = _uplot_uuid(msgs, "a0 (-) over time")
+    assert any(m["type"] == "GuiUpdateMessage" and m["uuid"] == a0 for m in msgs)
 
 
 # ---------------------------------------------------------------------- server

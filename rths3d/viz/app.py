@@ -22,10 +22,17 @@ from ..errors import ConfigError
 from ..platform import StewartGeometry
 from ..record import DOFS, RecordBuffer
 from .measures import RunningMeasures
-from .panels import history_data, ssp_data, stride, window
+from .panels import (
+    coefficient_data,
+    coefficient_unit,
+    history_data,
+    ssp_data,
+    stride,
+    window,
+)
 from .playback import Playback
 from .scene3d import PlatformScene, geometry_from_meta
-from .stream import Channels, channels, stream_dofs
+from .stream import Channels, channels, coefficient_columns, stream_dofs
 
 MAX_RATE = 30.0
 """Most view updates per second (the issue's ≤ 30 Hz)."""
@@ -56,6 +63,9 @@ class RunControl:
     paused: bool = False
     """The run waits (paused) for the page's Resume or Run / restart."""
 
+
+COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b")
+"""Line colours of the compensator's channels (six legs at most)."""
 
 def check_host(host: str, field: str = "host", timeout: float = 5.0) -> None:
     """ConfigError unless ``host`` resolves (within ``timeout`` s) to an address of this
@@ -285,6 +295,8 @@ class Viewer:
             self.span_slider.on_update(self._on_span)
         self._channels = channels(self.buffer.index, self.dof)
         self._build_panels()
+        self.comp_folder: Any = None
+        self._build_compensator()
         with gui.add_folder("Running measures"):
             self.measures = RunningMeasures(self.buffer.meta)
             self.measures_md = gui.add_markdown(self.measures.markdown(None))
@@ -336,6 +348,48 @@ class Viewer:
                 data=tuple(empty for _ in force_series), series=tuple(force_series),
                 title=f"F'_m ({ch.dof}, {fu})", scales={"x": {"time": False}},
                 axes=({}, {"size": 64}), aspect=2.4)
+
+    def _build_compensator(self) -> None:
+        """The compensator's coefficients over time, one line per channel (interface DOF or
+        leg), for the coefficient chosen; nothing when the stream has none."""
+        self._coefs = coefficient_columns(self.buffer.index)
+        self.coef_plot = None
+        if not self._coefs:
+            return
+        gui = self.server.gui
+        names = list(self._coefs)
+        if getattr(self, "coef", None) not in names:
+            self.coef = "a1" if "a1" in names else ("lead" if "lead" in names else names[0])
+        comp = (self.buffer.meta.get("transfer_meta") or {}).get("compensator") or {}
+        label = f"{comp.get('name', 'compensator')} ({comp.get('compensate', 'interface')})"
+        self.comp_folder = gui.add_folder(f"Compensator: {label}")
+        with self.comp_folder:
+            if len(names) > 1:
+                self.coef_dropdown = gui.add_dropdown("coefficient", options=names,
+                                                      initial_value=self.coef)
+                self.coef_dropdown.on_update(self._on_coef)
+        self._build_coef_plot()
+
+    def _build_coef_plot(self) -> None:
+        gui = self.server.gui
+        cols = self._coefs[self.coef]
+        unit = coefficient_unit(self.coef)
+        series = [{"label": "t (s)"}] + [
+            {"label": ch, "stroke": COLORS[i % len(COLORS)], "width": 1.5}
+            for i, (ch, _) in enumerate(cols)]
+        with self.comp_folder:
+            self.coef_plot = gui.add_uplot(
+                data=tuple(np.zeros(2) for _ in series), series=tuple(series),
+                title=f"{self.coef} ({unit}) over time", scales={"x": {"time": False}},
+                axes=({}, {"size": 72}), aspect=2.4)
+
+    def _on_coef(self, _: Any) -> None:
+        with self._lock:
+            self.coef = str(self.coef_dropdown.value)
+            if self.coef_plot is not None:
+                self.coef_plot.remove()
+            self._build_coef_plot()
+            self._dirty = True
 
     def _build_run_controls(self) -> None:
         gui, ctl = self.server.gui, self.control
@@ -426,6 +480,10 @@ class Viewer:
                 self.server.scene.reset()
                 self.scene = PlatformScene(self.server, buffer, self.geometry)
                 self.scene.exaggeration = float(self.exag_slider.value)
+                if self.comp_folder is not None:
+                    self.comp_folder.remove()
+                    self.comp_folder = None
+                self._build_compensator()
             self._channels = channels(buffer.index, self.dof)
             self._dirty = True
 
@@ -484,6 +542,9 @@ class Viewer:
                 disp, force = history_data(data, ch, rows)
                 self.disp_plot.data = disp
                 self.force_plot.data = force
+                if self.coef_plot is not None:
+                    self.coef_plot.data = coefficient_data(data, ch.t, self._coefs[self.coef],
+                                                           rows)
                 if not self.live:
                     self.time_slider.value = float(row[0])
             now = time.monotonic()

@@ -1,4 +1,5 @@
-"""Plot data for the live panels: the SSP and the time histories, as plain array functions.
+"""Plot data for the live panels: the SSP, the time histories and the compensator's
+coefficients, as plain array functions.
 
 The panels show a sliding window of the stream ending at the current sample. uPlot draws
 series against a sorted x: the time histories use t; the synchronization subspace plot (SSP,
@@ -65,3 +66,19 @@ def ssp_data(data: np.ndarray, ch: Channels, rows: slice) -> tuple[np.ndarray, .
     if ch.has_model:
         out.append(_col(data, rows, ch.model_z_meas)[order])
     return tuple(out)
+
+
+COEF_UNITS = {"a0": "-", "a1": "s", "a2": "s²", "tau": "s", "gain": "-", "lead": "s",
+              "u_fb": "m or rad"}
+"""Units of the compensators' coefficients (docs/compensation.md); RLS taps θ_i are -."""
+
+
+def coefficient_unit(coef: str) -> str:
+    """The unit of a compensator coefficient (``theta<i>``: -, unknown: "")."""
+    return COEF_UNITS.get(coef, "-" if coef.startswith("theta") else "")
+
+
+def coefficient_data(data: np.ndarray, t_col: int, cols: list[tuple[str, int]], rows: slice
+                     ) -> tuple[np.ndarray, ...]:
+    """One coefficient over ``rows`` for each channel: ``(t, c_channel0, c_channel1, …)``."""
+    return (_col(data, rows, t_col), *(_col(data, rows, c) for _, c in cols))

@@ -79,3 +79,19 @@ def group_indices(index: dict[str, int], prefix: str, names: tuple[str, ...]) ->
     """Indices of ``prefix.<name>`` for each name, or an empty array if any is missing."""
     cols = [index.get(f"{prefix}.{n}", -1) for n in names]
     return np.array([], dtype=int) if min(cols) < 0 else np.array(cols, dtype=int)
+
+
+COMP_PREFIX = "comp."
+"""Prefix of a compensator's coefficient columns, ``comp.<coefficient>.<channel>`` (channel:
+an interface DOF, or ``leg0``…``leg5`` for per-leg compensation)."""
+
+
+def coefficient_columns(index: dict[str, int]) -> dict[str, list[tuple[str, int]]]:
+    """The compensator's coefficients in a stream: coefficient → [(channel, column), …], in
+    column order (looked up once, never per update)."""
+    out: dict[str, list[tuple[str, int]]] = {}
+    for name, col in sorted(index.items(), key=lambda kv: kv[1]):
+        if name.startswith(COMP_PREFIX):
+            coef, _, channel = name[len(COMP_PREFIX):].partition(".")
+            out.setdefault(coef, []).append((channel, col))
+    return out
