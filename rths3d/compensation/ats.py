@@ -19,9 +19,10 @@ while the window's measured motion exceeds a trigger threshold.
 Implementation: the window is a ring of blocks of one re-estimation interval each; per sample
 the 3×3 normal equations of the newest block are accumulated (no subtraction, no drift), so a
 step costs O(1) and a re-estimation sums the blocks. Derivatives are central differences, so
-they carry no lag. A small ridge term pulls the solution toward the current coefficients
+they carry no lag. A small ridge term pulls the solution toward the initial coefficients
 along directions the data do not determine (with a single sine, x and ẍ are collinear and
-only a0 − ω²a2 is identifiable).
+only a0 − ω²a2 is identifiable): there the estimate stays at its start instead of wandering
+off, e.g. a2 across its bound 0 on a sine test.
 
 Drift safety: an estimate outside its bounds for longer than ``bound_time`` (the coefficients
 meanwhile stay at the bound), or an oscillating command (:class:`~.base.WatchConfig`), stops
@@ -70,7 +71,7 @@ class ATSConfig(WatchConfig):
       0.254 mm (channel units).
     filter_order, filter_hz: Butterworth low-pass on u and x_m before differentiation, 6th
       order at 20 Hz (0: no filter).
-    ridge: relative weight pulling the fit toward the current coefficients (-), 1e-4.
+    ridge: relative weight pulling the fit toward the initial coefficients (-), 1e-4.
     bound_time: time (s) an estimate may stay outside its bounds before the test stops,
       0.25 s (the plant has left what the compensator can represent, or it drifts).
     osc_*: the command-oscillation watch (:class:`~.base.WatchConfig`).
@@ -145,9 +146,10 @@ def _solve3(M, r):
 
 @njit(cache=True, nogil=True)
 def _ats_step(z, zd, zm, u, a, est, st, blocks, zi_u, zi_x, sos, watch, hp, wp, stopped,
-              code, ev_val, ev_lim, prm, lo, hi, step_max):
+              code, ev_val, ev_lim, prm, lo, hi, step_max, prior):
     """One call for all (K, n) channels. ``prm`` = [dt, M (samples per block), B (blocks),
-    threshold, ridge, bound_time, interval (s)]; ``wp``: the watch's parameters. Returns
+    threshold, ridge, bound_time, interval (s)]; ``wp``: the watch's parameters; ``prior``
+    (K, n, 3): the initial coefficients the ridge pulls toward. Returns
     True when a new safety event was raised."""
     dt = prm[0]
     M = int(prm[1])
@@ -209,9 +211,9 @@ def _ats_step(z, zd, zm, u, a, est, st, blocks, zi_u, zi_x, sos, watch, hp, wp, 
                             A[0, 1] = A[1, 0] = S[1] / (d0 * d1)
                             A[0, 2] = A[2, 0] = S[2] / (d0 * d2)
                             A[1, 2] = A[2, 1] = S[4] / (d1 * d2)
-                            r[0] = S[6] / d0 + ridge * d0 * a[k, j, 0]
-                            r[1] = S[7] / d1 + ridge * d1 * a[k, j, 1]
-                            r[2] = S[8] / d2 + ridge * d2 * a[k, j, 2]
+                            r[0] = S[6] / d0 + ridge * d0 * prior[k, j, 0]
+                            r[1] = S[7] / d1 + ridge * d1 * prior[k, j, 1]
+                            r[2] = S[8] / d2 + ridge * d2 * prior[k, j, 2]
                             if _solve3(A, r):
                                 est[k, j, 0] = r[0] / d0
                                 est[k, j, 1] = r[1] / d1
@@ -325,7 +327,7 @@ class ATSCompensator(BaseCompensator):
         if _ats_step(z, zdot, z_meas, self.u, self.a, self.est, self.st, self.blocks,
                      self.zi_u, self.zi_x, self.sos, self.watch, self.hp, self.wp, self.stopped,
                      self.code, self.ev_val, self.ev_lim, self.prm, self.lo, self.hi,
-                     self.step_max):
+                     self.step_max, self.a_init):
             self._events(self.code, self.ev_val, self.ev_lim, LABELS, UNITS)
         self.calls += 1
         return self.u
