@@ -18,7 +18,7 @@ def _run(tmp_path: Path, script: str, *args: str) -> subprocess.CompletedProcess
 
 @pytest.mark.parametrize("script", ["12_platform_batch.py", "30_metrics_from_record.py",
                                     "44_leave_one_family_out.py", "60_find_missing_effect.py",
-                                    "70_rths_benchmark.py"])
+                                    "70_rths_benchmark.py", "73_compensators_platform.py"])
 def test_help_prints_usage_without_running(tmp_path, script):
     """`--help` prints the usage and exits 0 without running or writing anything."""
     out = _run(tmp_path, script, "--help")
@@ -35,6 +35,8 @@ def test_help_prints_usage_without_running(tmp_path, script):
     ("44_leave_one_family_out.py", ["c.parquet", "--features", "1,x"], "--features: '1,x'"),
     ("43_feature_probe.py", ["c.parquet", "--named", "zeta,nope"], "--named: 'nope'"),
     ("43_feature_probe.py", ["c.parquet", "--forward", "16"], "--forward: 16"),
+    ("73_compensators_platform.py", ["--compensators", "ats,smith"], "'smith'"),
+    ("73_compensators_platform.py", ["--duration", "0.1"], "--duration: 0.1"),
 ])
 def test_bad_arguments_give_one_line_and_exit_2(tmp_path, script, args, needle):
     """A user mistake in an example's arguments prints one `error:` line, no traceback."""
@@ -102,6 +104,26 @@ def test_feature_probe_forward_selection_picks_the_features_the_target_depends_o
     rows = json.loads(out.stdout.strip().splitlines()[-1])["probe"]
     assert [r["set"] for r in rows] == ["e_rel_track", "e_rel_track,fei_d"]
     assert rows[1]["r_test"] > rows[0]["r_test"] and rows[1]["r_test"] > 0.95
+
+
+def test_compensators_platform_example_makes_the_table(tmp_path):
+    """73 runs paper_contact on the platform with none and ATS (both modes), prints the
+    markdown table and writes its rows: ATS well below no compensation, e_rel,ref in
+    (0, 1), the delay margin of the scene's record."""
+    import json
+
+    out = _run(tmp_path, "73_compensators_platform.py", "--scenes", "paper_contact",
+               "--compensators", "ats", "--duration", "2", "--json", "rows.json")
+    assert out.returncode == 0, out.stderr
+    assert "| paper_contact | ats | legs |" in out.stdout
+    rows = json.loads((tmp_path / "rows.json").read_text())
+    assert [(r["compensator"], r["compensate"]) for r in rows] == [
+        ("none", "interface"), ("ats", "interface"), ("ats", "legs")]
+    none = rows[0]["e_rel_ref"][0]
+    for r in rows[1:]:
+        assert r["status"] == "ok" and 0 < r["e_rel_ref"][0] < none / 3
+        assert r["tau_ratio_max"] == pytest.approx(max(r["fei_d"]) / r["tau_max"])
+    assert 0.0004 < rows[0]["tau_max"] < 0.0005  # s: the undamped part's delay margin
 
 
 @pytest.mark.parametrize("script, args, module, extra", [
