@@ -20,7 +20,7 @@ from rths3d.metrics import compute_measures
 from rths3d.platform import DEFAULT_GEOMETRY, inverse_kinematics
 from rths3d.scene import load_scene, scene_with
 from rths3d.transfer import StewartTransfer, batch_key, register_transfer
-from rths3d.transfer.legs import LEG_CHANNELS, leg_rates
+from rths3d.transfer.legs import LEG_CHANNELS, leg_channels
 
 DELAY = 0.005  # s, the actuators' transport delay of the issue's must-show
 PLATFORM = {"transfer.kind": "stewart", "transfer.delay": DELAY,
@@ -137,20 +137,26 @@ def test_multidof_per_leg_beats_per_dof_on_uneven_legs(uneven):
 # the per-leg hook
 
 
-def test_leg_rates_equal_finite_differences_of_the_inverse_kinematics():
-    """ṡ of the compiled kernel = (L(p + ε ṗ) − L(p − ε ṗ)) / 2ε of the numpy inverse
-    kinematics, for rotated and translated poses and all six pose rates."""
+def test_leg_channels_equal_the_inverse_kinematics_and_its_finite_differences():
+    """The compiled per-leg channels: s = L(p) − L_home of the numpy inverse kinematics,
+    ṡ = (L(p + ε ṗ) − L(p − ε ṗ)) / 2ε, for rotated and translated poses and all six pose
+    rates, and the measured extensions passed through."""
     g = DEFAULT_GEOMETRY
     rng = np.random.default_rng(3)
     poses = rng.uniform(-1, 1, (5, 6)) * [0.02, 0.02, 0.02, 0.1, 0.1, 0.1]
     rates = rng.uniform(-1, 1, (5, 6)) * [0.1, 0.1, 0.1, 0.5, 0.5, 0.5]
-    out = np.zeros((5, 6))
-    leg_rates(poses, rates, np.ascontiguousarray(g.base_anchors()),
-              np.ascontiguousarray(g.top_anchors()), float(g.home_height), out)
+    q = rng.normal(size=(5, 6))
+    home = g.home_leg_lengths()
+    s, sd, sm = np.zeros((5, 6)), np.zeros((5, 6)), np.zeros((5, 6))
+    leg_channels(poses, rates, np.ascontiguousarray(g.base_anchors()),
+                 np.ascontiguousarray(g.top_anchors()), float(g.home_height), home, q, s, sd,
+                 sm)
+    np.testing.assert_allclose(s, inverse_kinematics(g, poses) - home, atol=1e-14)
     eps = 1e-6
     fd = (inverse_kinematics(g, poses + eps * rates)
           - inverse_kinematics(g, poses - eps * rates)) / (2 * eps)
-    np.testing.assert_allclose(out, fd, atol=1e-8)
+    np.testing.assert_allclose(sd, fd, atol=1e-8)
+    np.testing.assert_array_equal(sm, q)
 
 
 def test_leg_hook_commands_the_compensated_lengths_and_allocates_nothing(peak_bytes):

@@ -421,13 +421,13 @@ class PlatformBatch:
         self._nsub = int(config.substeps)
         self._any_stopped = False
         self._run = np.ones(nsim, dtype=np.bool_)
-        self._norun = np.zeros(nsim, dtype=np.bool_)
         self.leg_hook = None
         """Per-leg compensation (``transfer.compensate = "legs"``, set by
-        :mod:`rths3d.transfer.legs`): ``hook(L)`` rewrites in place the desired leg lengths L
-        (K, 6) (m) that the inverse kinematics computed into the lengths to command, before
-        the command limits are checked and the set-points written (allocation-free: it runs
-        every step). None: the set-points of the desired lengths."""
+        :mod:`rths3d.transfer.legs`): ``hook(L)`` writes into L (K, 6) the leg lengths (m) to
+        command for :attr:`poses` — the inverse kinematics (same anchors ``_b``, ``_p``,
+        ``_hh``) compensated per leg — before the command limits are checked and the
+        set-points written (allocation-free: it runs every step). None: the inverse
+        kinematics of the poses."""
         self._all = np.arange(nsim)
         self._wrows: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self.stopped = np.zeros(nsim, dtype=bool)
@@ -560,12 +560,8 @@ class PlatformBatch:
         """One interface step from the commanded poses in :attr:`poses` (the hot path)."""
         self._fresh = False
         if self.leg_hook is not None:
-            # per-leg compensation: the inverse kinematics alone (no test "runs", so nothing
-            # is written or checked), then the hook turns the desired lengths in _L into the
-            # lengths to command; the call below checks and writes those (ik = False)
-            leg_setpoints(self.poses, self._b, self._p, self._hh, self._home, self._off,
-                          self._ffg, self._Lprev, self._L, self._ctrl, self._a0, self._half,
-                          self._vdt, self._norun, True)
+            # per-leg compensation: the hook writes the lengths to command into _L (from the
+            # poses, with this platform's anchors); the call below checks and writes those
             self.leg_hook(self._L)
         if leg_setpoints(self.poses, self._b, self._p, self._hh, self._home, self._off,
                          self._ffg, self._Lprev, self._L, self._ctrl, self._a0, self._half,

@@ -14,8 +14,10 @@ each leg's channel sees only its own signals,
 
 The compensated extension u replaces the desired one: the platform commands L = L_home + u,
 checks its stroke and speed limits on that, and writes the servo set-points as usual. The
-step runs in :meth:`rths3d.platform.sim.PlatformBatch._advance` through its ``leg_hook``,
-between the inverse kinematics and the set-point write; it allocates nothing.
+step runs in :meth:`rths3d.platform.sim.PlatformBatch._advance` through its ``leg_hook``, in
+place of the inverse kinematics before the set-point write (one compiled pass computes the
+desired lengths with the platform's own anchors, their rates and the measured extensions);
+it allocates nothing.
 
 :class:`LegCompensation` takes the interface compensator's place in the Stewart transfer
 system: its ``command`` passes the interface command through (keeping ż for the leg rates)
@@ -38,17 +40,19 @@ from ..platform.sim import PlatformBatch
 from ..record import DOFS
 from .commands import build_compensator
 
-__all__ = ["LEG_CHANNELS", "LegCompensation", "leg_rates", "platform_compensator"]
+__all__ = ["LEG_CHANNELS", "LegCompensation", "leg_channels", "platform_compensator"]
 
 LEG_CHANNELS: tuple[str, ...] = tuple(f"leg{i}" for i in range(6))
 """Channel names of per-leg compensation (record columns ``comp.<coefficient>.leg<i>``)."""
 
 
 @njit(cache=True, nogil=True)
-def leg_rates(poses, rates, b, p, hh, out):
-    """ṡ (K, 6) (m/s) of the legs of K platforms under pose rates ``rates`` (K, 6) (m/s,
-    rad/s of the fixed-axis angles) at ``poses`` (K, 6) (relative to home, home height
-    ``hh``): l·(ṫ + ω × R p_i)/|l| with l = t + R p_i − b_i."""
+def leg_channels(poses, rates, b, p, hh, home, q, s_des, s_rate, s_meas):
+    """The per-leg channels of K platforms, in one pass: the desired extensions
+    s = |l| − L_home with l = t + R p_i − b_i (the platform's inverse kinematics, home height
+    ``hh``), their rates ṡ = l·(ṫ + ω × R p_i)/|l| under the pose rates ``rates`` (K, 6)
+    (m/s, rad/s of the fixed-axis angles) and the measured extensions (the slide positions
+    ``q``), each (K, 6) in m or m/s."""
     for k in range(poses.shape[0]):
         cx, sx = math.cos(poses[k, 3]), math.sin(poses[k, 3])
         cy, sy = math.cos(poses[k, 4]), math.sin(poses[k, 4])
@@ -78,15 +82,9 @@ def leg_rates(poses, rates, b, p, hh, out):
             vx = rates[k, 0] + wy * rz - wz * ry
             vy = rates[k, 1] + wz * rx - wx * rz
             vz = rates[k, 2] + wx * ry - wy * rx
-            out[k, i] = (lx * vx + ly * vy + lz * vz) / math.sqrt(lx * lx + ly * ly + lz * lz)
-
-
-@njit(cache=True, nogil=True)
-def _channels_in(L, home, q, s_des, s_meas):
-    """Desired extensions L − L_home and measured ones (the slide positions q)."""
-    for k in range(L.shape[0]):
-        for i in range(6):
-            s_des[k, i] = L[k, i] - home[i]
+            L = math.sqrt(lx * lx + ly * ly + lz * lz)
+            s_des[k, i] = L - home[i]
+            s_rate[k, i] = (lx * vx + ly * vy + lz * vz) / L
             s_meas[k, i] = q[k, i]
 
 
@@ -135,9 +133,9 @@ class LegCompensation:
 
     # -- the platform's hook (every step, allocation-free) ---------------------------------
     def __call__(self, L: np.ndarray) -> None:
-        sim = self.sim
-        leg_rates(sim.poses, self.rates, self._b, self._p, self._hh, self.s_rate)
-        _channels_in(L, self._home, self._q, self.s_des, self.s_meas)
+        """Write the lengths to command (K, 6) into ``L``, from the commanded poses."""
+        leg_channels(self.sim.poses, self.rates, self._b, self._p, self._hh, self._home,
+                     self._q, self.s_des, self.s_rate, self.s_meas)
         u = self.comp.command(self.s_des, self.s_rate, self.s_meas)
         _commands_out(u, self._home, L)
 
