@@ -11,6 +11,12 @@ Prints ONE JSON line:
                      bare mj_step of the model, and raw mujoco.batch stepping of K_stewart
   first_runs_s       wall time of the first (tiny) single and batch runs of both paths in the
                      process: loading the compiled kernels, excluded from the figures above
+  ats_over_none_time loop wall time of one test with the ATS compensator over the same test
+                     without compensation, on the Stewart path (the MuJoCo platform, where
+                     the platform dominates the step; 5 ms actuator delay, ATS per interface
+                     DOF from the predicted delay), runs alternated side by side; floor 1.15
+  ats_legs_over_none_time  the same with ATS on each of the six legs (transfer.compensate =
+                     "legs": the platform's leg hook)
 Medians over repeats; ratios measured side by side in one run. ``--quick``: 2 s tests, one
 repeat (figures noisier).
 """
@@ -37,7 +43,7 @@ def main() -> None:
 
     from rths3d.loop import run, run_batch
     from rths3d.reference import reference_solution
-    from rths3d.scene import load_scene
+    from rths3d.scene import load_scene, scene_with
 
     duration = 2.0 if args.quick else 10.0
     reps = 1 if args.quick else 3
@@ -51,6 +57,13 @@ def main() -> None:
         run(warm, kind, reference=False)
         run_batch(warm, [{"numerical.k": 1e3}, {"numerical.k": 2e3}], kind, reference=False)
     first_runs = time.perf_counter() - t0
+    comp = {name: load_scene(REPO / "scenes" / "paper_contact.toml", [
+        f"duration={duration}", "transfer.kind='stewart'", "transfer.delay=0.005",
+        f"transfer.compensation='{c}'", f"transfer.compensate='{where}'"])
+        for name, c, where in (("none", "none", "interface"), ("ats", "ats", "interface"),
+                               ("ats_legs", "ats", "legs"))}
+    for sc_c in comp.values():  # the compensator's kernels load on its first run
+        run(scene_with(sc_c, {"duration": 0.1}), reference=False)
 
     rtf_st, ratio, rtf_lti, bare_rtf = [], [], [], []
     for _ in range(reps):
@@ -70,6 +83,13 @@ def main() -> None:
         ratio.append(r.wall / bare)
         bare_rtf.append(sc.duration / bare)
         rtf_lti.append(run(sc, "lti", reference=False).rtf)
+    # the compensator's cost on the Stewart path: the same test with and without, alternated
+    walls: dict[str, list[float]] = {k: [] for k in comp}
+    for _ in range(max(reps, 3)):
+        for name, sc_c in comp.items():
+            r = run(sc_c, reference=False)
+            assert r.status == "ok", r.reason
+            walls[name].append(r.wall)
     t0 = time.perf_counter()
     reference_solution([sc])
     rtf_ref = sc.duration / (time.perf_counter() - t0)
@@ -106,6 +126,9 @@ def main() -> None:
         "batch_bare_rtf_stewart": round(b_bare, 1),
         "batch_rtf_lti": round(b_lti, 1),
         "first_runs_s": round(first_runs, 2),
+        "ats_over_none_time": round(med(walls["ats"]) / med(walls["none"]), 3),
+        "ats_legs_over_none_time": round(med(walls["ats_legs"]) / med(walls["none"]), 3),
+        "ats_path": "stewart",
         "k_stewart": args.k_stewart, "k_lti": args.k_lti, "duration_s": duration,
         "quick": args.quick,
     }))
