@@ -321,3 +321,20 @@ transfer = "stewart"
                 np.mean([row[f"comp_{c}_final.{ch}"] for ch in chans]))
         delay = row["comp_a1_final"] if row["comp_name"] == "ats" else row["comp_lead_final"]
         assert 0.005 < delay < 0.010  # s: about the platform's delay
+
+
+def test_per_leg_tests_stepped_together_equal_their_runs_alone():
+    """Two per-leg ATS tests with different servo gains stepped together (one MuJoCo model
+    each) give the records of their runs alone, coefficients included, to rounding."""
+    from rths3d.loop import run_batch
+
+    sc = _scene("paper_contact", "ats", duration=1.5, **{"transfer.compensate": "legs"})
+    sets = [{"transfer.kp": 2.0e5}, {"transfer.kp": 1.5e5, "transfer.kv": 1.5e3}]
+    together = run_batch(sc, sets, reference=False)
+    for ps, res in zip(sets, together, strict=True):
+        alone = run(scene_with(sc, ps), reference=False).record
+        for col in ("z_meas.z", "f_meas.z", "comp.a1.leg0", "comp.a0.leg5"):
+            np.testing.assert_allclose(res.record.columns[col], alone.columns[col],
+                                       rtol=0, atol=1e-9 * np.abs(alone.columns[col]).max())
+    a1 = [r.record.columns["comp.a1.leg0"][0] for r in together]
+    assert a1[0] != a1[1]  # each started from its own predicted delay
