@@ -421,11 +421,12 @@ def test_lti_tests_with_different_actuators_step_together():
             x = r1.record.columns[c]
             np.testing.assert_allclose(rb.record.columns[c], x, rtol=0,
                                        atol=tol * np.max(np.abs(x)), err_msg=c)
-        # approx compares flat containers only (pytest 9 refuses nested ones): key by key
+        # approx compares flat containers only (pytest 9 refuses nested ones): key by key;
+        # the compensator's metadata (a nested dict: name, mode, initial values) exactly
         tb, t1 = rb.record.meta["transfer_meta"], r1.record.meta["transfer_meta"]
         assert tb.keys() == t1.keys()
         for k, v in t1.items():
-            assert tb[k] == (v if isinstance(v, str) else pytest.approx(v)), k
+            assert tb[k] == (v if isinstance(v, str | dict) else pytest.approx(v)), k
     delays = [r.record.meta["transfer_meta"]["predicted_delay"] for r in batch]
     assert len({round(d, 9) for d in delays}) == 4 and max(delays) > 0.01
 
