@@ -44,7 +44,7 @@ from .record import Record, RecordBuffer
 from .reference import reference_solution
 from .safety import USER, SafetyMonitor
 from .scene import scene_to_dict, scene_with
-from .stepping import noise_buffer, record_row, run_steps
+from .stepping import noise_buffer, post_step, pre_step, run_steps
 from .transfer import TransferSystem, batch_key, build_transfer, transfer_class
 
 __all__ = ["LoopControl", "RunResult", "batch_key", "run", "run_batch"]
@@ -235,13 +235,12 @@ class _Group:
         return False
 
     def _compiled(self, n0: int, n1: int, num_c: tuple, tr_c: Any) -> int:
-        m, tr = self.monitor, self.transfer
+        tr = self.transfer
         R = self.K * self.nd
         stages = (*tr_c.comp, *tr_c.act, *tr_c.part, *tr_c.sens)
         io = (self.num.z, self.num.zdot, self.num.x, tr.z_meas, tr.z_prev, tr.f_true,
               tr.f_meas, tr.u)
-        mon = (m.lim_z, m.lim_v, m.lim_x, m.lim_f, m.g_win, m.g_fac, m.g_n, m.g_floor, m.g_pk,
-               m.g_prev, m.g_base, m.g_cnt, m.active, m.code, m.dof, m.value, m.row)
+        mon = self._monitor_arrays()
         rec = (self.data, self.c_zc, self.c_zm, self.c_f, self.c_x)
         return int(run_steps(n0, n1, num_c, stages, io, mon, rec,
                              noise_buffer(tr_c.act_noise, n1 - n0, R),
@@ -250,9 +249,17 @@ class _Group:
     def _python(self, n0: int, n1: int) -> int:
         num, tr, mon = self.num, self.transfer, self.monitor
         f = self._f
+        num_c = num.compiled()  # a linear substructure: its step and the checks in one call
+        mon_c = self._monitor_arrays()
+        rec = (self.data, self.c_zc, self.c_zm, self.c_f, self.c_x)
+        sigs = list(zip(tr.signals, self.hist, strict=True))
         for n in range(n0, n1):
-            num.step(n, f)
-            if mon.command(n, num.z, num.zdot, num.x):
+            if num_c is not None:
+                new = pre_step(num_c, f, n, num.z, num.zdot, num.x, mon_c)
+            else:
+                num.step(n, f)
+                new = mon.command(n, num.z, num.zdot, num.x)
+            if new:
                 self._halt(n)
                 if not mon.any_active:
                     return n - n0
@@ -262,15 +269,18 @@ class _Group:
                     mon.stop(int(k), tr.reasons[k], n)
                     num.halt(int(k))
             f = self._f = tr.f_meas
-            record_row(self.data, n + 1, num.z, tr.z_meas, f, num.x, self.c_zc, self.c_zm,
-                       self.c_f, self.c_x)
-            for sig, h in zip(tr.signals, self.hist, strict=True):
+            for sig, h in sigs:
                 h[n + 1] = sig.source
-            if mon.force(n, f):
+            if post_step(rec, n, num.z, tr.z_meas, f, num.x, mon_c):
                 self._halt(n)
                 if not mon.any_active:
                     return n + 1 - n0
         return n1 - n0
+
+    def _monitor_arrays(self) -> tuple:
+        m = self.monitor
+        return (m.lim_z, m.lim_v, m.lim_x, m.lim_f, m.g_win, m.g_fac, m.g_n, m.g_floor, m.g_pk,
+                m.g_prev, m.g_base, m.g_cnt, m.active, m.code, m.dof, m.value, m.row)
 
     def _halt(self, n: int) -> None:
         """Tests stopped at step n rest from now on (load and state zeroed)."""

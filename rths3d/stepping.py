@@ -25,7 +25,8 @@ from .safety import check_command, check_measured
 inline_njit = numba.njit(cache=True, nogil=True, inline="always")
 """numba's compiler for the loop's small per-step helpers, inlined into their caller."""
 
-__all__ = ["linear_step", "noise_buffer", "record_row", "run_steps", "transfer_step"]
+__all__ = ["linear_step", "noise_buffer", "post_step", "pre_step", "record_row", "run_steps",
+           "transfer_step"]
 
 
 @inline_njit
@@ -53,6 +54,29 @@ def transfer_step(comp_f, comp_p, comp_s, act_fs, act_ps, act_ss, part_f, part_p
     run_chain(sens_fs, sens_ps, sens_ss, ftrue, fmeas, w_sens)
     for r in range(zm.shape[0]):
         zprev[r] = zm[r]
+
+
+@njit
+def pre_step(num, f, n, z, zd, x, mon):
+    """The Python loop's step n before the transfer system, in one compiled call: the linear
+    substructure's step and the command check (returns the new stops)."""
+    Ad, Bf, P, s, s_next, Czx, Czv, Cx = num
+    (lim_z, lim_v, lim_x, lim_f, g_win, g_fac, g_n, g_floor, g_pk, g_prev, g_base, g_cnt,
+     active, code, dof, value, row) = mon
+    linear_step(Ad, Bf, P, n, f, s, s_next, Czx, Czv, Cx, z, zd, x)
+    return check_command(z, zd, x, lim_z, lim_v, lim_x, active, code, dof, value, row, n)
+
+
+@njit
+def post_step(rec, n, z, zm, f, x, mon):
+    """The Python loop's step n after the transfer system, in one compiled call: the record
+    row n+1 and the measured-force checks (returns the new stops)."""
+    data, c_zc, c_zm, c_f, c_x = rec
+    (lim_z, lim_v, lim_x, lim_f, g_win, g_fac, g_n, g_floor, g_pk, g_prev, g_base, g_cnt,
+     active, code, dof, value, row) = mon
+    record_row(data, n + 1, z, zm, f, x, c_zc, c_zm, c_f, c_x)
+    return check_measured(f, lim_f, g_win, g_fac, g_n, g_floor, g_pk, g_prev, g_base, g_cnt,
+                          active, code, dof, value, row, n)
 
 
 @njit

@@ -251,6 +251,31 @@ def read_interface(q, hh, idx, R, sens_f, sens_t, pre, z, f):
                        + R[k, 3 * a + 2] * src[k, 2]) - pre[k, i]
 
 
+@njit
+def after_step(q, v, f, half, vmax, fmax, run, plate_q, hh, idx, R, sens_f, sens_t, pre, z,
+               fout):
+    """After one interface step: read the interface (:func:`read_interface`) and return
+    whether a running test's legs left their limits (:func:`measured_over`)."""
+    read_interface(plate_q, hh, idx, R, sens_f, sens_t, pre, z, fout)
+    return measured_over(q, v, f, half, vmax, fmax, run)
+
+
+@njit
+def interface_command(u, idx, poses):
+    """The interface DOFs ``idx`` of the commanded poses set to ``u`` (K, len(idx))."""
+    for k in range(u.shape[0]):
+        for c in range(idx.shape[0]):
+            poses[k, idx[c]] = u[k, c]
+
+
+@njit
+def command_legs(u, idx, poses, b, p, hh, home, off, ffg, Lprev, L, ctrl, a0, half, vdt, run):
+    """:func:`interface_command`, then :func:`leg_setpoints` (one call on the hot path)."""
+    interface_command(u, idx, poses)
+    return leg_setpoints(poses, b, p, hh, home, off, ffg, Lprev, L, ctrl, a0, half, vdt, run,
+                         True)
+
+
 class _OneSim:
     """The part of ``mujoco.batch.Batch`` the platform uses, for one ``MjData``."""
 
@@ -556,16 +581,37 @@ class PlatformBatch:
         self.poses[:] = poses
         self._advance()
 
-    def _advance(self) -> None:
-        """One interface step from the commanded poses in :attr:`poses` (the hot path)."""
+    def step_interface(self, u: np.ndarray, idx: np.ndarray, z: np.ndarray,
+                       f: np.ndarray) -> None:
+        """One interface step commanding the DOFs ``idx`` to ``u`` (the others at home),
+        then the achieved DOFs into ``z`` and their interface wrench into ``f`` (the loop's
+        hot path: one compiled call before the MuJoCo step and one after; after a MuJoCo
+        step every further call meets cold caches, so they are few)."""
+        self._advance(idx, z, f, u)
+
+    def _advance(self, idx: np.ndarray | None = None, z: np.ndarray | None = None,
+                 f: np.ndarray | None = None, u: np.ndarray | None = None) -> None:
+        """One interface step from the commanded poses in :attr:`poses` (the hot path); with
+        ``idx``, the interface DOFs set to ``u`` first and read into ``z`` and ``f`` after."""
         self._fresh = False
         if self.leg_hook is not None:
+            if u is not None:
+                interface_command(u, idx, self.poses)
             # per-leg compensation: the hook writes the lengths to command into _L (from the
             # poses, with this platform's anchors); the call below checks and writes those
             self.leg_hook(self._L)
-        if leg_setpoints(self.poses, self._b, self._p, self._hh, self._home, self._off,
-                         self._ffg, self._Lprev, self._L, self._ctrl, self._a0, self._half,
-                         self._vdt, self._run, self.leg_hook is None):
+            bad = leg_setpoints(self.poses, self._b, self._p, self._hh, self._home,
+                                self._off, self._ffg, self._Lprev, self._L, self._ctrl,
+                                self._a0, self._half, self._vdt, self._run, False)
+        elif u is not None:
+            bad = command_legs(u, idx, self.poses, self._b, self._p, self._hh, self._home,
+                               self._off, self._ffg, self._Lprev, self._L, self._ctrl, self._a0,
+                               self._half, self._vdt, self._run)
+        else:
+            bad = leg_setpoints(self.poses, self._b, self._p, self._hh, self._home, self._off,
+                                self._ffg, self._Lprev, self._L, self._ctrl, self._a0,
+                                self._half, self._vdt, self._run, True)
+        if bad:
             self._command_limits(self._L - self._home, self._L - self._Lprev)
         if not self._any_stopped:
             self.batch.step(nstep=self._nsub)
@@ -574,8 +620,14 @@ class PlatformBatch:
             self.batch.step(nstep=self._nsub, ids=self._all[self._run])
         self.k += 1
         self._check_status()
-        if measured_over(self._legs_q, self._legs_v, self._legs_f, self._half, self._vmax,
-                         self._fmax, self._run):
+        if idx is not None:
+            over = after_step(self._legs_q, self._legs_v, self._legs_f, self._half, self._vmax,
+                              self._fmax, self._run, self.plate_qpos, self._hh, idx,
+                              self._fts_R, self._fts_force, self._fts_torque, self._pre, z, f)
+        else:
+            over = measured_over(self._legs_q, self._legs_v, self._legs_f, self._half,
+                                 self._vmax, self._fmax, self._run)
+        if over:
             self._measured_limits(self._legs_q, self._legs_v, self._legs_f)
 
     def _command_limits(self, s: np.ndarray, dL: np.ndarray) -> None:

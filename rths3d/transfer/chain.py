@@ -112,7 +112,7 @@ class ChainTransfer:
         self.f_meas[:] = self.sensor(f)
         self.z_prev[:] = zm
         self.z_meas[:] = zm
-        if comp.stopped.any():  # an adaptive compensator drifted: the bench stops the test
+        if comp.any_stopped:  # an adaptive compensator drifted: the bench stops the test
             self.stopped[:] = comp.stopped
             self.reasons = list(comp.reasons)
 

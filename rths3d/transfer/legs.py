@@ -153,6 +153,10 @@ class LegCompensation:
         return self.comp.stopped
 
     @property
+    def any_stopped(self) -> bool:
+        return self.comp.any_stopped
+
+    @property
     def reasons(self) -> list[str]:
         """The leg compensator's stop reasons, naming the leg."""
         return [r.replace("(channel ", "(leg ") for r in self.comp.reasons]

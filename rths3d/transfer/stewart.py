@@ -124,20 +124,18 @@ class StewartTransfer:
         self.reasons = [""] * self.K
 
     def step(self, z: np.ndarray, zdot: np.ndarray) -> None:
-        u = self.compensator.command(z, zdot, self.z_meas)
+        comp = self.compensator
+        u = comp.command(z, zdot, self.z_meas)
         sim = self.sim
-        sim.poses[:, self.idx] = u
-        sim._advance()
-        sim.read(self.idx, self.z_meas, self._f)
         if self.sensor.empty:
-            self.f_meas[:] = self._f
+            sim.step_interface(u, self.idx, self.z_meas, self.f_meas)
         else:
+            sim.step_interface(u, self.idx, self.z_meas, self._f)
             self.f_meas[:] = self.sensor(self._f)
         if sim._any_stopped:
             self.stopped[:] = sim.stopped
             self.reasons = list(sim.reasons)
-        comp = self.compensator
-        if comp.stopped.any():  # an adaptive compensator drifted: stop like any limit
+        if comp.any_stopped:  # an adaptive compensator drifted: stop like any limit
             for k in np.flatnonzero(comp.stopped & ~self.stopped):
                 self.stopped[k] = True
                 self.reasons[k] = comp.reasons[k]
