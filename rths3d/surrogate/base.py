@@ -50,6 +50,8 @@ class Switch:
 
 
 NO_SWITCH = Switch((0.0,), (0.0,), np.inf)
+ERROR_CAP = 10.0
+"""Largest relative output error counted (a run that diverges counts as this)."""
 
 
 def difference_transform(m: int) -> np.ndarray:
@@ -218,8 +220,8 @@ class LagModel:
     def validate(self, z: np.ndarray, f: np.ndarray, n_blocks: int = 4) -> float:
         """Output error on held-out blocks: for each of ``n_blocks`` contiguous blocks, refit
         on the others (same structure) and run freely over the block from its measured
-        initial lags; the mean over blocks of RMS(F_sim − F)/RMS(F) (inf if a run
-        diverges)."""
+        initial lags; the mean over blocks of RMS(F_sim − F)/RMS(F), each block's error
+        capped at :data:`ERROR_CAP` (a run that diverges counts as the cap)."""
         z, f = check_signals(z, f)
         L = max(self.nb - 1, self.na, 1)
         scale = np.sqrt(np.mean(f * f)) or 1.0
@@ -228,11 +230,21 @@ class LagModel:
             rows = np.ones(len(z) - L, dtype=bool)
             rows[b0 - L:b1 - L] = False
             m = self.refit(z, f, rows)
-            sim = m.predict(z, f, b0, b1)
-            if not np.isfinite(sim).all():
-                return float("inf")
-            errs.append(float(np.sqrt(np.mean((sim - f[b0:b1]) ** 2))) / scale)
+            errs.append(self._error(m.predict(z, f, b0, b1), f[b0:b1], scale))
         return float(np.mean(errs))
+
+    def simulation_error(self, z: np.ndarray, f: np.ndarray) -> float:
+        """In-sample output error: this model run freely over the whole record,
+        RMS(F_sim − F)/RMS(F) (capped at :data:`ERROR_CAP`)."""
+        z, f = check_signals(z, f)
+        L = max(self.nb - 1, self.na, 1)
+        return self._error(self.predict(z, f, L), f[L:], np.sqrt(np.mean(f * f)) or 1.0)
+
+    @staticmethod
+    def _error(sim: np.ndarray, f: np.ndarray, scale: float) -> float:
+        if not np.isfinite(sim).all():
+            return ERROR_CAP
+        return min(float(np.sqrt(np.mean((sim - f) ** 2))) / scale, ERROR_CAP)
 
     def _fit_regimes(self, R: np.ndarray, Y: np.ndarray, hi: np.ndarray | None, T: np.ndarray
                      ) -> None:

@@ -91,14 +91,17 @@ class SurrogateConfig:
 @dataclass
 class Identification:
     """The part identified from one record: candidates with their validation errors
-    (``scores``, relative RMS output error on held-out blocks), the chosen ``model`` and the
-    uncertainty ``members`` (the chosen one first)."""
+    (``scores``, relative RMS output error on held-out blocks; ``insample``: free run over
+    the whole record), their ranking ``order``, the chosen ``model`` and the uncertainty
+    ``members`` (the chosen one first)."""
 
     candidates: list[LagModel]
     scores: list[float]
     model: LagModel
     members: list[LagModel] = field(default_factory=list)
     member_names: list[str] = field(default_factory=list)
+    insample: list[float] = field(default_factory=list)
+    order: list[int] = field(default_factory=list)
 
 
 def identify(z: np.ndarray, f: np.ndarray, config: SurrogateConfig | None = None
@@ -108,6 +111,7 @@ def identify(z: np.ndarray, f: np.ndarray, config: SurrogateConfig | None = None
     z, f = check_signals(z, f)
     cands: list[LagModel] = []
     scores: list[float] = []
+    insample: list[float] = []
     with np.errstate(all="ignore"):
         switch: dict[str, Switch] = {}
         couplings = ("full",) if z.shape[1] == 1 else cfg.couplings
@@ -120,13 +124,17 @@ def identify(z: np.ndarray, f: np.ndarray, config: SurrogateConfig | None = None
                 else:
                     m = CLASSES[cls](nb, na, cp).fit(z, f)
                 s = m.validate(z, f, cfg.n_blocks)
+                s_in = m.simulation_error(z, f)
             except (np.linalg.LinAlgError, ValueError):
                 continue
             cands.append(m)
-            scores.append(s if math.isfinite(s) else math.inf)
+            scores.append(s)
+            insample.append(s_in)
     if not cands:
         raise RecordError("no part model could be fitted to z' and F'_m")
-    order = np.argsort(scores, kind="stable")
+    # held-out error first; among equals (e.g. every candidate diverging on some held-out
+    # block of a record with few cycles) the in-sample free-run error decides
+    order = np.lexsort((insample, scores))
     best = cands[int(order[0])]
     members: list[LagModel] = [best]
     names = [best.label]
@@ -148,7 +156,8 @@ def identify(z: np.ndarray, f: np.ndarray, config: SurrogateConfig | None = None
             members.append(m)
             names.append(m.label)
             break
-    return Identification(cands, scores, best, members, names)
+    return Identification(cands, scores, best, members, names, insample,
+                          [int(i) for i in order])
 
 
 def numerical_of(record: Record):
@@ -313,8 +322,7 @@ class SurrogateReference:
             rest = []
             for i in redo:
                 ident = ids[i]
-                order = np.argsort(ident.scores, kind="stable")
-                rest.append([ident.candidates[int(j)] for j in order
+                rest.append([ident.candidates[j] for j in ident.order
                              if ident.candidates[int(j)] not in ident.members])
             keep = [k for k, r in enumerate(rest) if r]
             if keep:
