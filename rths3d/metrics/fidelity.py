@@ -35,6 +35,7 @@ KEYS: tuple[str, ...] = ("e_rel_ref_hat", "e_mre_ref_hat", "e_peak_ref_hat", "e_
 
 
 def _flat(e: dict) -> dict[str, float]:
+    """The keys of this module from :attr:`SurrogateReference.estimates_` of a record."""
     std = e["e_rel_ref_std"]
     return {"e_rel_ref_hat": e["e_rel_ref"], "e_mre_ref_hat": e["e_mre_ref"],
             "e_peak_ref_hat": e["e_peak_ref"], "e_rel_ref_f_hat": e["e_rel_ref_f"],

@@ -289,6 +289,8 @@ class SurrogateReference:
 
     ``z_ref_``
         ẑ^r (N, d), m / rad.
+    ``z_ref_members_``
+        ẑ^r of every member that coupled without diverging (M, N, d), the estimate first.
     ``identification_``
         :class:`Identification`: candidates, validation errors, chosen model, members.
     ``estimates_``
@@ -333,7 +335,7 @@ class SurrogateReference:
                     ids[i].members = rest[k]
                     ids[i].member_names = [m.label for m in rest[k]]
                     zs[i] = zm
-        z_ref, est = [], []
+        z_ref, est, members_z = [], [], []
         for r, ident, zm in zip(recs, ids, zs, strict=True):
             zp = r.signal("z_meas")
             dom = dominant_dof(zp, r.signal("f_meas"))
@@ -359,40 +361,61 @@ class SurrogateReference:
             e.update({"e_rel_ref_std": spread, "e_rel_ref_members": rel.tolist(),
                       "model": chosen.label, "validation": score, "n_members": len(ok)})
             z_ref.append(zr)
+            members_z.append(zm[ok] if ok else zm[:0])
             est.append(e)
         self.identification_ = ids[0] if single else ids
         self.z_ref_ = z_ref[0] if single else z_ref
+        self.z_ref_members_ = members_z[0] if single else members_z
         self.estimates_ = est[0] if single else est
         self._records = recs
         return self
 
     def columns(self, record: Record, index: int = 0) -> dict[str, np.ndarray]:
         """Per-step columns of the ``index``-th fitted record (see :func:`fidelity_columns`)."""
-        zr = self.z_ref_ if isinstance(self.z_ref_, np.ndarray) else self.z_ref_[index]
-        return fidelity_columns(record, zr, self.config.window)
+        one = isinstance(self.z_ref_, np.ndarray)
+        zr = self.z_ref_ if one else self.z_ref_[index]
+        zm = self.z_ref_members_ if one else self.z_ref_members_[index]
+        return fidelity_columns(record, zr, self.config.window, zm)
 
 
-def fidelity_columns(record: Record, z_ref_hat: np.ndarray, window: float = WINDOW
-                     ) -> dict[str, np.ndarray]:
-    """The documented per-step columns of a record with an estimated reference:
-    ``z_ref_hat.<dof>`` ẑ^r, ``e_hat.<dof>`` ê = z' − ẑ^r and ``e_hat_rms.<dof>`` its
-    running RMS over ``window`` s (m or rad)."""
+def fidelity_columns(record: Record, z_ref_hat: np.ndarray, window: float = WINDOW,
+                     members: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """The documented per-step columns of a record with an estimated reference (m or rad):
+
+    ``z_ref_hat.<dof>``
+        the surrogate reference ẑ^r;
+    ``e_hat.<dof>``
+        the estimated reference error ê = z' − ẑ^r (the error e_rel,ref averages);
+    ``e_hat_rms.<dof>``
+        its running RMS over ``window`` s (:func:`~rths3d.surrogate.running.running_rms`);
+    ``e_hat_rms_lo.<dof>``, ``e_hat_rms_hi.<dof>``
+        the band of the running RMS over the ``members`` ((M, N, d) ẑ^r of each member; the
+        smallest and largest at every sample), when given.
+    """
     zp = record.signal("z_meas")
     zr = np.asarray(z_ref_hat, dtype=float).reshape(zp.shape)
     e = zp - zr
     rms = running_rms(e, record.dt, window)
     cols: dict[str, np.ndarray] = {}
+    band = None
+    if members is not None and len(members):
+        r_m = np.stack([running_rms(zp - m, record.dt, window) for m in members])
+        band = (np.minimum(r_m.min(axis=0), rms), np.maximum(r_m.max(axis=0), rms))
     for j, d in enumerate(record.dofs):
         cols[f"z_ref_hat.{d}"] = zr[:, j]
         cols[f"e_hat.{d}"] = e[:, j]
         cols[f"e_hat_rms.{d}"] = rms[:, j]
+        if band is not None:
+            cols[f"e_hat_rms_lo.{d}"] = band[0][:, j]
+            cols[f"e_hat_rms_hi.{d}"] = band[1][:, j]
     return cols
 
 
 def surrogate_reference(record: Record, config: SurrogateConfig | None = None,
                         *, columns: bool = True) -> tuple[Record, dict]:
-    """One record → (a copy with the per-step columns ``z_ref_hat``, ``e_hat``,
-    ``e_hat_rms`` added, the estimates of :attr:`SurrogateReference.estimates_`)."""
+    """One record → (a copy with the per-step columns of :func:`fidelity_columns` added and
+    the estimates in ``meta["surrogate"]``, the estimates of
+    :attr:`SurrogateReference.estimates_`). Save the copy (``Record.save``) to keep them."""
     est = SurrogateReference(config).fit(record)
     cols = dict(record.columns)
     if columns:
