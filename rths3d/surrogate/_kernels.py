@@ -66,13 +66,20 @@ def simulate(z, f, n0, n1, th_lo, th_hi, a, c, h, lagged, nb, na):  # pragma: no
 
 
 @njit(cache=True, nogil=True)
-def advance(zb, fb, z1, th_lo, th_hi, a, c, h, lagged, out):  # pragma: no cover - jit
+def advance(zb, fb, z1, th_lo, th_hi, a, c, h, lagged, limit, diverged,
+            out):  # pragma: no cover - jit
     """One step of K lag models: ``zb`` (K, nb, d) holds z_n … (newest first), ``fb``
     (K, na, d) F_n …; ``z1`` (K, d) is z_{n+1}. Writes F_{n+1} into ``out`` (K, d) and
-    shifts the buffers (no allocation)."""
+    shifts the buffers (no allocation). A test whose force leaves ``limit`` (K,) is flagged
+    in ``diverged`` (K,) and gives zero force from then on (so that the interface iteration
+    of the others still converges)."""
     K, nb, d = zb.shape
     na = fb.shape[1]
     for k in range(K):
+        if diverged[k]:
+            for j in range(d):
+                out[k, j] = 0.0
+            continue
         w = -h[k]
         for j in range(d):
             zz = zb[k, 0, j] if lagged[k] else z1[k, j]
@@ -93,6 +100,12 @@ def advance(zb, fb, z1, th_lo, th_hi, a, c, h, lagged, out):  # pragma: no cover
                     s += th[k, i, q] * fb[k, t, j]
                     q += 1
             out[k, i] = s
+            if not abs(s) <= limit[k]:
+                diverged[k] = True
+        if diverged[k]:
+            for j in range(d):
+                out[k, j] = 0.0
+            continue
         for t in range(nb - 1, 0, -1):
             for j in range(d):
                 zb[k, t, j] = zb[k, t - 1, j]
@@ -103,3 +116,30 @@ def advance(zb, fb, z1, th_lo, th_hi, a, c, h, lagged, out):  # pragma: no cover
                 fb[k, t, j] = fb[k, t - 1, j]
         for j in range(d):
             fb[k, 0, j] = out[k, j]
+
+
+@njit(cache=True, nogil=True)
+def rms_update(buf, sums, out, e, state):  # pragma: no cover - jit
+    """Running RMS over a ring buffer of squares: add sample ``e`` (d,); ``state`` = [next
+    row, samples so far]. Exact re-sum once per window (no drift)."""
+    W, d = buf.shape
+    i = state[0]
+    for j in range(d):
+        sq = e[j] * e[j]
+        sums[j] += sq - buf[i, j]
+        buf[i, j] = sq
+    i += 1
+    if i == W:
+        i = 0
+        for j in range(d):
+            s = 0.0
+            for r in range(W):
+                s += buf[r, j]
+            sums[j] = s
+    state[0] = i
+    if state[1] < W:
+        state[1] += 1
+    n = state[1]
+    for j in range(d):
+        v = sums[j] / n
+        out[j] = np.sqrt(v) if v > 0.0 else 0.0

@@ -266,10 +266,12 @@ class LagPart:
     ``advance(z_from, z_to)`` (K, d): the mount moves to z_to over one step; returns the
     restoring force F at its end (K, d). ``get_state``/``set_state``: the lag buffers. The
     models may differ in class and orders: they are padded to the largest orders with zero
-    coefficients. Starts at rest (all lags zero), as the reference does.
+    coefficients. Starts at rest (all lags zero), as the reference does. ``limit`` (K,):
+    a test whose force exceeds it is flagged in ``diverged`` and gives zero force from then
+    on (the others' interface iteration still converges); default no limit.
     """
 
-    def __init__(self, models: list[LagModel]):
+    def __init__(self, models: list[LagModel], limit: np.ndarray | None = None):
         d = models[0].theta_lo_.shape[0]
         nb = max(m.nb for m in models)
         na = max(m.na for m in models)
@@ -297,6 +299,9 @@ class LagPart:
         self.zb = np.zeros((K, nb, d))
         self.fb = np.zeros((K, na, d))
         self.f = np.zeros((K, d))
+        self.limit = (np.full(K, np.inf) if limit is None else
+                      np.ascontiguousarray(np.broadcast_to(np.asarray(limit, float), (K,))))
+        self.diverged = np.zeros(K, dtype=np.bool_)
 
     def reset(self) -> None:
         self.zb[:] = 0.0
@@ -311,5 +316,6 @@ class LagPart:
 
     def advance(self, z_from: np.ndarray, z_to: np.ndarray) -> np.ndarray:
         _kernels.advance(self.zb, self.fb, np.ascontiguousarray(z_to, dtype=float),
-                         self.th_lo, self.th_hi, self.a, self.c, self.h, self.lagged, self.f)
+                         self.th_lo, self.th_hi, self.a, self.c, self.h, self.lagged,
+                         self.limit, self.diverged, self.f)
         return self.f

@@ -185,32 +185,6 @@ def numerical_of(record: Record):
     return M, C, K, G, p
 
 
-class _GuardedPart:
-    """A LagPart whose tests that diverge are frozen at zero force (so that the others'
-    interface iteration still converges) and flagged in ``diverged``."""
-
-    def __init__(self, part: LagPart, limit: np.ndarray):
-        self.part = part
-        self.limit = limit
-        self.diverged = np.zeros(part.K, dtype=bool)
-
-    def get_state(self):
-        return self.part.get_state()
-
-    def set_state(self, s) -> None:
-        self.part.set_state(s)
-
-    def advance(self, z_from: np.ndarray, z_to: np.ndarray) -> np.ndarray:
-        f = self.part.advance(z_from, z_to)
-        bad = ~(np.abs(f) <= self.limit[:, None]).all(axis=1)
-        if bad.any():
-            self.diverged |= bad
-        if self.diverged.any():
-            f[self.diverged] = 0.0
-            self.part.fb[self.diverged] = 0.0
-        return f
-
-
 def couple_members(records: Sequence[Record], members: Sequence[Sequence[LagModel]],
                    config: SurrogateConfig | None = None) -> list[np.ndarray]:
     """ẑ^r of every member of every record, coupled in one batch per record shape.
@@ -244,7 +218,7 @@ def couple_members(records: Sequence[Record], members: Sequence[Sequence[LagMode
         G = nums[idx[0]][3]
         num = LinearSubstructure(np.array(Ms), np.array(Cs), np.array(Ks), G, np.array(ps),
                                  r0.dt, "exact")
-        part = _GuardedPart(LagPart(models), np.array(limits))
+        part = LagPart(models, np.array(limits))
         with np.errstate(all="ignore"):
             ref = couple_exact(num, part, r0.n - 1, tol=cfg.tol, max_iter=cfg.max_iter)
         zr = ref["z_ref"]

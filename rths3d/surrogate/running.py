@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _kernels
+
 WINDOW = 0.25
 """Default window T_w of the running RMS (s)."""
 
@@ -47,14 +49,15 @@ def running_rms(e: np.ndarray, dt: float, window: float = WINDOW) -> np.ndarray:
 class RunningRMS:
     """Online running RMS over the last W samples, one sample per :meth:`update`.
 
-    ``RunningRMS(n_dof, window_samples)``; ``update(e)`` takes the newest error sample (a
-    float or an (n_dof,) array, e.g. z'_n − ẑ^r_n in m/rad) and returns the running RMS as a
-    read-only (n_dof,) view that stays valid (updated in place). No allocation per sample:
-    a ring buffer of squares and a running sum, re-summed exactly once per window so that
-    round-off cannot drift. ``reset()`` starts again.
+    ``RunningRMS(n_dof, window_samples)``; ``update(e)`` takes the newest error sample (an
+    (n_dof,) float array, or a float for one DOF; e.g. z'_n − ẑ^r_n in m/rad) and returns the
+    running RMS as a read-only (n_dof,) view that stays valid (updated in place). No
+    allocation per sample: a compiled kernel over a ring buffer of squares and a running sum,
+    re-summed exactly once per window so that round-off cannot drift. ``reset()`` starts
+    again. ``value`` is the latest running RMS.
     """
 
-    __slots__ = ("_buf", "_sum", "_out", "_sq", "_i", "_n", "W", "value")
+    __slots__ = ("_buf", "_sum", "_out", "_e", "_state", "W", "value")
 
     def __init__(self, n_dof: int, window_samples: int):
         self.W = int(window_samples)
@@ -62,35 +65,24 @@ class RunningRMS:
             raise ValueError("RunningRMS needs n_dof >= 1 and window_samples >= 1")
         self._buf = np.zeros((self.W, int(n_dof)))
         self._sum = np.zeros(int(n_dof))
-        self._sq = np.zeros(int(n_dof))
         self._out = np.zeros(int(n_dof))
+        self._e = np.zeros(int(n_dof))
+        self._state = np.zeros(2, dtype=np.int64)
         self.value = self._out.view()
         self.value.flags.writeable = False
-        self._i = 0
-        self._n = 0
 
     def reset(self) -> None:
         self._buf[:] = 0.0
         self._sum[:] = 0.0
         self._out[:] = 0.0
-        self._i = 0
-        self._n = 0
+        self._state[:] = 0
 
     def update(self, e) -> np.ndarray:
         """Add one sample; return the running RMS (n_dof,) view."""
-        sq = np.multiply(e, e, out=self._sq)
-        row = self._buf[self._i]
-        self._sum -= row
-        row[:] = sq
-        self._sum += sq
-        self._i += 1
-        if self._i == self.W:
-            self._i = 0
-            # exact re-sum once per window: the running sum cannot drift
-            np.sum(self._buf, axis=0, out=self._sum)
-        if self._n < self.W:
-            self._n += 1
-        np.maximum(self._sum, 0.0, out=self._out)
-        self._out /= self._n
-        np.sqrt(self._out, out=self._out)
+        if isinstance(e, np.ndarray) and e.dtype == np.float64 and e.shape == self._e.shape:
+            x = e
+        else:
+            self._e[:] = e
+            x = self._e
+        _kernels.rms_update(self._buf, self._sum, self._out, x, self._state)
         return self.value
