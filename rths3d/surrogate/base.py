@@ -138,11 +138,54 @@ def column_groups(nb: int, na: int, d: int, coupling: str = "full"
     return [(np.concatenate([np.arange(nb + na) * d + j, [p - 1]]), [j]) for j in range(d)]
 
 
-def fit_groups(R: np.ndarray, Y: np.ndarray, T: np.ndarray, groups) -> np.ndarray:
-    """Θ (d, p) from one least-squares fit per column group (zeros outside the groups)."""
-    th = np.zeros((Y.shape[1], R.shape[1]))
+def fit_groups(R: np.ndarray, Y: np.ndarray, T: np.ndarray, groups, nb: int, na: int
+               ) -> np.ndarray:
+    """Θ (d, p) from one least-squares fit per column group (zeros outside the groups), each
+    with its force-lag (autoregressive) part made stable (:func:`stabilise`)."""
+    d = Y.shape[1]
+    th = np.zeros((d, R.shape[1]))
     for cols, outs in groups:
-        th[np.ix_(outs, cols)] = lstsq_fit(R[:, cols], Y[:, outs], T[np.ix_(cols, cols)])
+        sub = lstsq_fit(R[:, cols], Y[:, outs], T[np.ix_(cols, cols)])
+        th[np.ix_(outs, cols)] = stabilise(sub, R[:, cols], Y[:, outs],
+                                          T[np.ix_(cols, cols)], nb, na, len(outs))
+    return th
+
+
+def ar_radius(th: np.ndarray, nb: int, na: int, k: int) -> float:
+    """Largest |root| of the force-lag polynomial of a group's Θ (k outputs, columns ordered
+    z taps, force lags, constant; k DOFs per tap): the decay of the part's force with its
+    mount held still."""
+    if na == 0:
+        return 0.0
+    A = [th[:, nb * k + (i - 1) * k: nb * k + i * k] for i in range(1, na + 1)]
+    comp = np.zeros((na * k, na * k))
+    comp[:k] = np.hstack(A)
+    comp[k:, :-k] = np.eye((na - 1) * k)
+    return float(np.max(np.abs(np.linalg.eigvals(comp))))
+
+
+def stabilise(th: np.ndarray, R: np.ndarray, Y: np.ndarray, T: np.ndarray, nb: int, na: int,
+              k: int) -> np.ndarray:
+    """Θ with its force-lag polynomial's roots inside the unit circle.
+
+    With the mount held still the force of a passive part dies out (or rings on, undamped):
+    the roots of its force-lag polynomial lie in the closed unit disc. Least squares on
+    sampled data can put a lightly damped mode's pair just outside it (|λ| = 1.0001 is a
+    growth of 10 % per second at 1 kHz), and coupled to a stiff numerical substructure over
+    a whole test that mode then grows where the real part's decays. Such a fit is scaled
+    radially, A_i → A_i s^i with s = 1/|λ|_max (every root by s), and the displacement
+    coefficients refitted with the force lags fixed.
+    """
+    rho = ar_radius(th, nb, na, k)
+    if rho <= 1.0 or not np.isfinite(rho):
+        return th
+    s = 1.0 / rho
+    th = th.copy()
+    ar = np.arange(nb * k, (nb + na) * k)
+    for i in range(1, na + 1):
+        th[:, nb * k + (i - 1) * k: nb * k + i * k] *= s ** i
+    rest = np.setdiff1d(np.arange(th.shape[1]), ar)
+    th[:, rest] = lstsq_fit(R[:, rest], Y - R[:, ar] @ th[:, ar].T, T[np.ix_(rest, rest)])
     return th
 
 
@@ -249,13 +292,14 @@ class LagModel:
     def _fit_regimes(self, R: np.ndarray, Y: np.ndarray, hi: np.ndarray | None, T: np.ndarray
                      ) -> None:
         groups = column_groups(self.nb, self.na, Y.shape[1], self.coupling)
+        o = (self.nb, self.na)
         if hi is None or hi.all() or not hi.any():
-            th = fit_groups(R, Y, T, groups)
+            th = fit_groups(R, Y, T, groups, *o)
             self.theta_lo_ = self.theta_hi_ = np.ascontiguousarray(th)
             res = R @ th.T - Y
         else:
-            self.theta_lo_ = np.ascontiguousarray(fit_groups(R[~hi], Y[~hi], T, groups))
-            self.theta_hi_ = np.ascontiguousarray(fit_groups(R[hi], Y[hi], T, groups))
+            self.theta_lo_ = np.ascontiguousarray(fit_groups(R[~hi], Y[~hi], T, groups, *o))
+            self.theta_hi_ = np.ascontiguousarray(fit_groups(R[hi], Y[hi], T, groups, *o))
             res = np.where(hi[:, None], R @ self.theta_hi_.T, R @ self.theta_lo_.T) - Y
         self.residual_ = float(np.sqrt(np.mean(res ** 2) / max(np.mean(Y ** 2), 1e-300)))
 

@@ -62,19 +62,26 @@ class SwitchedARX(LagModel):
     """Two-regime ARX part model with a searched switch (see the module docstring).
 
     Parameters: ``nb``, ``na`` as :class:`~rths3d.surrogate.arx.ARX`; ``switch``: a fixed
-    :class:`~rths3d.surrogate.base.Switch` (skips the search, e.g. to refit on other rows).
+    :class:`~rths3d.surrogate.base.Switch` (skips the search, e.g. to refit on other rows);
+    ``timings``: which switching variables the search tries, ``True`` the state at the start
+    of the step (z_{n−1}, F_{n−1}; default), ``False`` with z_n. A switch fixed at the start
+    of the step keeps the force affine in z_n within every step, so that the exact coupling
+    has exactly one solution per step (with z_n the regime can flip with the unknown z_n:
+    two solutions or none).
     Fitted: ``theta_lo_``, ``theta_hi_`` (d, p), ``switch_``, ``residual_``.
     """
 
     name = "switched"
 
     def __init__(self, nb: int = 4, na: int = 2, coupling: str = "full",
-                 switch: Switch | None = None):
+                 switch: Switch | None = None, timings: tuple[bool, ...] = (True,)):
         super().__init__(nb, na, coupling)
         self.switch = switch
+        self.timings = tuple(bool(t) for t in timings)
 
     def refit(self, z, f, rows=None) -> SwitchedARX:
-        return SwitchedARX(self.nb, self.na, self.coupling, self.switch_).fit(z, f, rows)
+        return SwitchedARX(self.nb, self.na, self.coupling, self.switch_,
+                           self.timings).fit(z, f, rows)
 
     def fit(self, z: np.ndarray, f: np.ndarray, rows: np.ndarray | None = None
             ) -> SwitchedARX:
@@ -129,7 +136,7 @@ class SwitchedARX(LagModel):
         # 1. direction (several DOFs) on a grid, c = 0, either timing of the switch
         angles = [0.0] if d == 1 else list(np.linspace(0.0, np.pi, 12, endpoint=False))
         best = (np.inf, 0.0, np.zeros(d), np.inf, False)   # sse, φ, c, h, lagged
-        for lagged in (False, True):
+        for lagged in self.timings:
             for ph in angles:
                 sse, h = score(direction(ph), np.zeros(d), lagged)
                 if sse < best[0]:
@@ -137,7 +144,7 @@ class SwitchedARX(LagModel):
         if not np.isfinite(best[0]):
             return Switch(tuple([0.0] * d), tuple([0.0] * d), np.inf)
         # 2. each component of c on a grid (multiples of the data scale), both timings
-        for lagged in (False, True):
+        for lagged in self.timings:
             c = np.zeros(d)
             for j in range(d):
                 for m in C_GRID:
