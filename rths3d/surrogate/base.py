@@ -120,21 +120,26 @@ def lstsq_fit(R: np.ndarray, Y: np.ndarray, T: np.ndarray, ridge: float = 1e-12)
     return ((th / scale[:, None]).T @ T)  # Θ_raw = Θ_δ T
 
 
-COUPLINGS = ("full", "diagonal")
+COUPLINGS = ("full", "diagonal", "mixed")
 """How the force components depend on the DOFs: every component on every DOF's lags
-(``full``), or each component on its own DOF's lags only (``diagonal``; a part whose DOFs
-are coupled only through a shared switch, e.g. a contact)."""
+(``full``), or each component on its own DOF's lags only (``diagonal``; DOFs that do not
+interact); ``mixed`` (two-regime models): diagonal in the low regime, full in the high one (a
+part whose DOFs interact only through a contact, e.g. a bar touching a surface with its
+tip)."""
 
 
-def column_groups(nb: int, na: int, d: int, coupling: str = "full"
+def column_groups(nb: int, na: int, d: int, coupling: str = "full", regime: str = "lo"
                   ) -> list[tuple[np.ndarray, list[int]]]:
-    """(regressor columns, force components) fitted together: one group for ``full``
-    coupling, one per DOF for ``diagonal`` (its own lags and the constant)."""
+    """(regressor columns, force components) fitted together in ``regime`` (``lo``/``hi``):
+    one group for full coupling, one per DOF for diagonal coupling (its own lags and the
+    constant)."""
     p = (nb + na) * d + 1
+    if coupling not in COUPLINGS:
+        raise ValueError(f"coupling must be one of {COUPLINGS}")
+    if coupling == "mixed":
+        coupling = "diagonal" if regime == "lo" else "full"
     if coupling == "full" or d == 1:
         return [(np.arange(p), list(range(d)))]
-    if coupling != "diagonal":
-        raise ValueError(f"coupling must be one of {COUPLINGS}")
     return [(np.concatenate([np.arange(nb + na) * d + j, [p - 1]]), [j]) for j in range(d)]
 
 
@@ -291,15 +296,17 @@ class LagModel:
 
     def _fit_regimes(self, R: np.ndarray, Y: np.ndarray, hi: np.ndarray | None, T: np.ndarray
                      ) -> None:
-        groups = column_groups(self.nb, self.na, Y.shape[1], self.coupling)
+        d = Y.shape[1]
+        g_lo = column_groups(self.nb, self.na, d, self.coupling, "lo")
+        g_hi = column_groups(self.nb, self.na, d, self.coupling, "hi")
         o = (self.nb, self.na)
         if hi is None or hi.all() or not hi.any():
-            th = fit_groups(R, Y, T, groups, *o)
+            th = fit_groups(R, Y, T, g_lo, *o)
             self.theta_lo_ = self.theta_hi_ = np.ascontiguousarray(th)
             res = R @ th.T - Y
         else:
-            self.theta_lo_ = np.ascontiguousarray(fit_groups(R[~hi], Y[~hi], T, groups, *o))
-            self.theta_hi_ = np.ascontiguousarray(fit_groups(R[hi], Y[hi], T, groups, *o))
+            self.theta_lo_ = np.ascontiguousarray(fit_groups(R[~hi], Y[~hi], T, g_lo, *o))
+            self.theta_hi_ = np.ascontiguousarray(fit_groups(R[hi], Y[hi], T, g_hi, *o))
             res = np.where(hi[:, None], R @ self.theta_hi_.T, R @ self.theta_lo_.T) - Y
         self.residual_ = float(np.sqrt(np.mean(res ** 2) / max(np.mean(Y ** 2), 1e-300)))
 

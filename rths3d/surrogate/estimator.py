@@ -35,7 +35,7 @@ import numpy as np
 from ..errors import RecordError
 from ..record import Record
 from .arx import ARX
-from .base import COUPLINGS, LagModel, LagPart, Switch, check_signals
+from .base import LagModel, LagPart, Switch, check_signals
 from .running import WINDOW, running_rms
 from .switched import SwitchedARX
 
@@ -55,9 +55,9 @@ class SurrogateConfig:
     """Settings of the surrogate reference.
 
     ``candidates``: (class, nb, na) triples; ``n_blocks``: held-out blocks of the validation;
-    ``couplings``: for several DOFs, full and/or diagonal (see
-    :data:`~rths3d.surrogate.base.COUPLINGS`); ``accept``: a candidate of another class whose
-    validation error is within this factor of the best joins the uncertainty members;
+    ``couplings``: for several DOFs, full and/or diagonal (and ``mixed`` for the switched
+    class; see :data:`~rths3d.surrogate.base.COUPLINGS`); ``accept``: a candidate of another
+    class whose validation error is within this factor of the best joins the members;
     ``halves``: refit the best on each half of the record as two more members; ``tol``
     (m, rad) and ``max_iter``: the interface iteration of the coupling; ``window``:
     running-RMS window (s).
@@ -70,7 +70,7 @@ class SurrogateConfig:
     tol: float = 1e-10
     max_iter: int = 30
     window: float = WINDOW
-    couplings: tuple[str, ...] = COUPLINGS
+    couplings: tuple[str, ...] = ("full", "diagonal")
 
     def __post_init__(self) -> None:
         from ..errors import ConfigError
@@ -116,6 +116,8 @@ def identify(z: np.ndarray, f: np.ndarray, config: SurrogateConfig | None = None
         switch: dict[str, Switch] = {}
         couplings = ("full",) if z.shape[1] == 1 else cfg.couplings
         for (cls, nb, na), cp in itertools.product(cfg.candidates, couplings):
+            if cp == "mixed" and cls != "switched":
+                continue  # one regime: mixed is diagonal
             try:
                 if cls == "switched":
                     # the switch found with the first (lowest) orders serves the others

@@ -32,8 +32,9 @@ def _split_sse(groups: list[tuple], w: np.ndarray, min_rows: int, n_cand: int
     """Smallest summed SSE of the two-regime least squares over thresholds of ``w``.
 
     ``groups``: per output group (O (rows, p, p) outer products of the scaled regressors,
-    B (rows, p, k) regressor × target, yy (rows,) |y|², totals, ridge λ (p,)). The regimes
-    share the threshold; the SSE adds up over groups. Returns (SSE, threshold)."""
+    B (rows, p, k) regressor × target, yy (rows,) |y|², totals, ridge λ (p,), the regimes it
+    serves ``("lo", "hi")``). The regimes share the threshold; the SSE adds up over groups.
+    Returns (SSE, threshold)."""
     n = len(w)
     order = np.argsort(w, kind="stable")
     ws = w[order]
@@ -42,13 +43,16 @@ def _split_sse(groups: list[tuple], w: np.ndarray, min_rows: int, n_cand: int
         return np.inf, np.inf
     cuts = np.concatenate([[0], pos])
     sse = np.zeros(len(pos))
-    for O, B, yy, totals, lam in groups:
+    for O, B, yy, totals, lam, sides in groups:
         Gc = np.cumsum(np.add.reduceat(O[order], cuts, axis=0), axis=0)[:len(pos)]
         Bc = np.cumsum(np.add.reduceat(B[order], cuts, axis=0), axis=0)[:len(pos)]
         yc = np.cumsum(np.add.reduceat(yy[order], cuts))[:len(pos)]
         Gt, Bt, yt = totals
         eye = np.diag(lam)
-        for G, Bs, ys in ((Gc, Bc, yc), (Gt - Gc, Bt - Bc, yt - yc)):
+        both = ((Gc, Bc, yc, "lo"), (Gt - Gc, Bt - Bc, yt - yc, "hi"))
+        for G, Bs, ys, side in both:
+            if side not in sides:
+                continue
             th = np.linalg.solve(G + eye, Bs)
             sse += ys - np.einsum("kpd,kpd->k", Bs, th)
     j = int(np.argmin(sse))
@@ -108,13 +112,19 @@ class SwitchedARX(LagModel):
         Ys = Y / ysc
         groups = []
         p_max = 0
-        for cols, outs in column_groups(self.nb, self.na, d, self.coupling):
-            Dg, Yg = Ds[:, cols], Ys[:, outs]
+        lo = column_groups(self.nb, self.na, d, self.coupling, "lo")
+        hi = column_groups(self.nb, self.na, d, self.coupling, "hi")
+        keyed: dict[tuple, list[str]] = {}
+        for side, gs in (("lo", lo), ("hi", hi)):
+            for cols, outs in gs:
+                keyed.setdefault((tuple(cols), tuple(outs)), []).append(side)
+        for (cols, outs), sides in keyed.items():
+            Dg, Yg = Ds[:, list(cols)], Ys[:, list(outs)]
             O = Dg[:, :, None] * Dg[:, None, :]
             B = Dg[:, :, None] * Yg[:, None, :]
             yy = np.einsum("ij,ij->i", Yg, Yg)
             groups.append((O, B, yy, (O.sum(0), B.sum(0), yy.sum()),
-                           np.full(len(cols), 1e-9 * len(Ds))))
+                           np.full(len(cols), 1e-9 * len(Ds)), tuple(sides)))
             p_max = max(p_max, len(cols))
         min_rows = max(4 * p_max, len(Ds) // 200)
         sz = np.std(zn, axis=0)
