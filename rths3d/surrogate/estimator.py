@@ -43,6 +43,11 @@ CANDIDATES: tuple[tuple[str, int, int], ...] = (
     ("arx", 4, 2), ("arx", 6, 4), ("switched", 4, 2), ("switched", 6, 4))
 """Candidate model classes and orders (class, nb, na), scored on held-out blocks."""
 
+CANDIDATES_MIMO: tuple[tuple[str, int, int], ...] = (("arx", 4, 2), ("switched", 4, 2))
+"""Candidates for several interface DOFs: the lowest orders only. Higher MIMO orders fit the
+record as well but couple badly (modes the record never excited), and the search for the
+switch's direction costs a free run per candidate."""
+
 CLASSES = {"arx": ARX, "switched": SwitchedARX}
 """Model class name → class (one file each in this package)."""
 
@@ -54,7 +59,8 @@ DIVERGED = 1e3
 class SurrogateConfig:
     """Settings of the surrogate reference.
 
-    ``candidates``: (class, nb, na) triples; ``n_blocks``: held-out blocks of the validation;
+    ``candidates``: (class, nb, na) triples (``candidates_mimo`` for several DOFs);
+    ``n_blocks``: held-out blocks of the validation;
     ``couplings``: for several DOFs, full and/or diagonal (and ``mixed`` for the switched
     class; see :data:`~rths3d.surrogate.base.COUPLINGS`); ``accept``: a candidate of another
     class whose validation error is within this factor of the best joins the members;
@@ -64,6 +70,7 @@ class SurrogateConfig:
     """
 
     candidates: tuple[tuple[str, int, int], ...] = CANDIDATES
+    candidates_mimo: tuple[tuple[str, int, int], ...] = CANDIDATES_MIMO
     n_blocks: int = 4
     accept: float = 2.0
     halves: bool = True
@@ -75,7 +82,7 @@ class SurrogateConfig:
     def __post_init__(self) -> None:
         from ..errors import ConfigError
 
-        for cls, nb, na in self.candidates:
+        for cls, nb, na in self.candidates + self.candidates_mimo:
             if cls not in CLASSES:
                 raise ConfigError("candidates", cls, f"one of {', '.join(CLASSES)}")
             if nb < 1 or na < 0:
@@ -114,8 +121,10 @@ def identify(z: np.ndarray, f: np.ndarray, config: SurrogateConfig | None = None
     insample: list[float] = []
     with np.errstate(all="ignore"):
         switch: dict[str, Switch] = {}
-        couplings = ("full",) if z.shape[1] == 1 else cfg.couplings
-        for (cls, nb, na), cp in itertools.product(cfg.candidates, couplings):
+        mimo = z.shape[1] > 1
+        couplings = cfg.couplings if mimo else ("full",)
+        cands_cfg = cfg.candidates_mimo if mimo else cfg.candidates
+        for (cls, nb, na), cp in itertools.product(cands_cfg, couplings):
             if cp == "mixed" and cls != "switched":
                 continue  # one regime: mixed is diagonal
             try:

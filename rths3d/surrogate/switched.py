@@ -11,7 +11,10 @@ cumulative Gram matrices of the regressors (the least-squares fit of each side, 
 differences of the lags), keeping the split of smallest one-step residual; the threshold is
 then refined between neighbouring candidates. For one DOF a = 1 and c runs over a grid
 (c = 1/k_EXP makes w the internal displacement x = z − F/k of a mass behind a spring); for
-several DOFs the direction a and the per-DOF c are searched coordinate-wise.
+several DOFs the direction a and the per-DOF c are searched coordinate-wise, each candidate
+direction judged by the free-run output error of the model it gives over the whole record
+(one-step residuals of samples 1 ms apart hardly tell directions apart; with the right one,
+a bar touching a surface with its tip, the held-out error drops from 0.2–0.6 to 0.04–0.2).
 """
 
 from __future__ import annotations
@@ -96,12 +99,13 @@ class SwitchedARX(LagModel):
         if rows is not None:
             R, Y, zn, zl, fl = R[rows], Y[rows], zn[rows], zl[rows], fl[rows]
         T = delta_matrix(self.nb, self.na, d)
-        sw = self.switch if self.switch is not None else self._search(R, Y, zn, zl, fl, T)
+        sw = (self.switch if self.switch is not None else
+              self._search(R, Y, zn, zl, fl, T, z, f))
         self.switch_ = sw
         self._fit_regimes(R, Y, sw.w(zn, zl, fl) > 0, T)
         return self
 
-    def _search(self, R, Y, zn, zl, fl, T) -> Switch:
+    def _search(self, R, Y, zn, zl, fl, T, z, f) -> Switch:
         d = zn.shape[1]
         D = R @ T.T
         scale = np.sqrt(np.mean(D * D, axis=0))
@@ -134,7 +138,15 @@ class SwitchedARX(LagModel):
 
         def score(a, c, lagged, n_cand=N_THRESHOLDS):
             w = (zl if lagged else zn) @ a - fl @ c
-            return _split_sse(groups, w, min_rows, n_cand)
+            sse, h = _split_sse(groups, w, min_rows, n_cand)
+            if d == 1 or not np.isfinite(h):
+                return sse, h
+            # several DOFs: the one-step residual hardly tells directions apart (the
+            # samples are 1 ms apart); the threshold comes from it, the direction is judged
+            # by the free run of the model it gives
+            sw = Switch(tuple(map(float, a)), tuple(map(float, c)), float(h), bool(lagged))
+            m = SwitchedARX(self.nb, self.na, self.coupling, sw).fit(z, f)
+            return m.simulation_error(z, f), h
 
         def direction(phi):
             if d == 1:
