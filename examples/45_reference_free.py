@@ -10,8 +10,9 @@ families (where it trains at all) and scored on the left-out tests, all on the s
   median ensemble) on Table-3 sets 1–3;
 - ``surrogate``: ê_rel,ref of the surrogate reference (the part identified from each test's
   own record, coupled exactly; no training at all);
-- ``surrogate, gated``: ê_rel,ref where the surrogate's members agree (spread ≤ g × ê) and
-  the e_rel,track line where they do not; g is chosen on the training families (the value of
+- ``surrogate, gated``: ê_rel,ref where the surrogate trusts itself and the e_rel,track line
+  where it does not. Trusted: at least two members coupled, their spread ≤ g × ê, and the
+  part model's held-out output error ≤ 1; g is chosen on the training families (the value of
   ``--gates`` that scores best there);
 - ``physics-informed ANN``: the nets on set 1 plus the surrogate inputs (ê_rel,ref, its
   spread, the part model's held-out error).
@@ -117,8 +118,12 @@ def main() -> None:
         return lambda ev: 10 ** (a + b * np.log10(ev["feature.e_rel_track"].to_numpy()))
 
     def gated(ev, g, fallback):
+        # trusted: at least two members coupled (a spread exists), they agree within g,
+        # and the part model's held-out output error is below the signal itself
         hat = ev["feature.e_rel_ref_hat"].to_numpy()
-        trusted = ev["feature.e_rel_ref_hat_std"].to_numpy() <= g * hat
+        trusted = ((ev["feature.e_rel_ref_hat_std"].to_numpy() <= g * hat)
+                   & (ev["measure.surrogate_members"].to_numpy() >= 2)
+                   & (ev["feature.surrogate_validation"].to_numpy() <= 1.0))
         return np.where(trusted, hat, fallback), trusted
 
     results = []
