@@ -239,3 +239,43 @@ def test_online_reference_equals_the_exact_coupling(contact_record, peak_bytes) 
                                rtol=1e-9, atol=1e-15)
     zn = z[5][None].copy()
     assert peak_bytes(lambda: on.update(5, zn), n=200) < 4096  # the call machinery only
+
+
+SWEEP = """
+[sweep]
+name = "est"
+duration = 3.0
+seed = 3
+batch_size = 8
+
+[[family]]
+name = "linear"
+scene = "{scenes}/paper_linear.toml"
+transfer = "lti"
+[family.grid]
+"numerical.k" = [5.0e3, 2.0e4]
+"transfer.delay" = [1e-3, 4e-3]
+"""
+
+
+def test_every_sweep_row_carries_the_estimate(tmp_path) -> None:
+    """A sweep's table has the surrogate inputs as features beside Table 3 (and the other
+    estimates as measures), within 2 % of e_rel,ref for a linear part; a physics-informed
+    feature list reads them."""
+    from rths3d.dataset import load_spec, run_sweep, training_data
+    from rths3d.dataset.table import parse_features
+    from rths3d.metrics.features import SET_1, SURROGATE
+
+    spec = tmp_path / "est.toml"
+    spec.write_text(SWEEP.format(scenes=REPO / "scenes"))
+    table = run_sweep(load_spec(spec), tmp_path / "out", workers=1, progress=False)
+    ok = table[table["status"] == "ok"]
+    assert len(ok) == 4
+    np.testing.assert_allclose(ok["feature.e_rel_ref_hat"], ok["target.e_rel_ref"], rtol=0.02)
+    for col in ("feature.e_rel_ref_hat_std", "feature.surrogate_validation",
+                "measure.e_mre_ref_hat", "measure.surrogate_members"):
+        assert np.isfinite(ok[col]).all(), col
+    names = parse_features("1,surrogate")
+    assert names == tuple(SET_1) + tuple(SURROGATE)
+    X, y, _ = training_data(table, names)
+    assert list(X.columns) == list(names) and len(y) == 4
