@@ -216,17 +216,23 @@ def test_cli_metrics_estimate_and_plot(contact_record, tmp_path) -> None:
 
 
 def test_online_reference_equals_the_exact_coupling(contact_record, peak_bytes) -> None:
-    """OnlineReference, one closed-form step per sample, reaches the same ẑ^r as the
-    interface iteration of couple_exact (to its tolerance), and its running RMS equals the
-    offline one; a step allocates no arrays."""
+    """OnlineReference and the estimator's batch coupling, one closed-form step per sample,
+    reach the same ẑ^r as the interface iteration of couple_exact (to its tolerance), and
+    the online running RMS equals the offline one; a step allocates no arrays."""
     from rths3d.numerical import LinearSubstructure
-    from rths3d.surrogate import OnlineReference, identify
+    from rths3d.reference import couple_exact
+    from rths3d.surrogate import LagPart, OnlineReference, identify
     from rths3d.surrogate.estimator import couple_members, numerical_of
 
     z, f = contact_record.signal("z_meas"), contact_record.signal("f_meas")
     model = identify(z, f).model
-    batch = couple_members([contact_record], [[model]])[0][0]
     M, C, K, G, p = numerical_of(contact_record)
+    # the reference solution's interface iteration, with the identified part
+    batch = couple_exact(LinearSubstructure(M, C, K, G, p, contact_record.dt, "exact"),
+                         LagPart([model]), contact_record.n - 1, tol=1e-12)["z_ref"][0]
+    # the estimator's closed-form coupling reaches the same fixed point
+    np.testing.assert_allclose(couple_members([contact_record], [[model]])[0][0], batch,
+                               rtol=0, atol=1e-7 * np.max(np.abs(batch)))
     on = OnlineReference(LinearSubstructure(M, C, K, G, p, contact_record.dt, "exact"),
                          [model], 250)
     zo, rms = np.zeros_like(z), np.zeros_like(z)

@@ -357,6 +357,7 @@ class LagPart:
     def reset(self) -> None:
         self.zb[:] = 0.0
         self.fb[:] = 0.0
+        self.f[:] = 0.0
 
     def get_state(self) -> tuple[np.ndarray, np.ndarray]:
         return self.zb.copy(), self.fb.copy()

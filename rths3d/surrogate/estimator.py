@@ -203,6 +203,7 @@ def couple_members(records: Sequence[Record], members: Sequence[Sequence[LagMode
     Returns per record an (M, N, d) array (NaN for a diverged member)."""
     from ..numerical import LinearSubstructure
     from ..reference import couple_exact
+    from .online import couple_closed_form
 
     cfg = config or SurrogateConfig()
     out: list[np.ndarray | None] = [None] * len(records)
@@ -231,7 +232,11 @@ def couple_members(records: Sequence[Record], members: Sequence[Sequence[LagMode
                                  r0.dt, "exact")
         part = LagPart(models, np.array(limits))
         with np.errstate(all="ignore"):
-            ref = couple_exact(num, part, r0.n - 1, tol=cfg.tol, max_iter=cfg.max_iter)
+            if all(m.switch_.lagged or not np.isfinite(m.switch_.h) for m in models):
+                # affine within every step: the fixed point in closed form (~20× faster)
+                ref = couple_closed_form(num, part, r0.n - 1)
+            else:
+                ref = couple_exact(num, part, r0.n - 1, tol=cfg.tol, max_iter=cfg.max_iter)
         zr = ref["z_ref"]
         zr[part.diverged] = np.nan
         k = 0

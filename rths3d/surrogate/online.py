@@ -27,12 +27,17 @@ from .running import RunningRMS
 
 @njit(cache=True, nogil=True)
 def _step(n, s, f_n, zb, fb, Ad, Bf0, Bf1, P, Czx, th_lo, th_hi, a, c, h,
-          tmp_s, g, A, rhs, z_out, f_out):  # pragma: no cover - jit
+          tmp_s, g, A, rhs, z_out, f_out, limit, diverged):  # pragma: no cover - jit
     K, S = s.shape
     d = zb.shape[2]
     nb = zb.shape[1]
     na = fb.shape[1]
     for k in range(K):
+        if diverged[k]:
+            for j in range(d):
+                z_out[k, j] = np.nan
+                f_out[k, j] = np.nan
+            continue
         km = k if Ad.shape[0] > 1 else 0
         kp = k if P.shape[0] > 1 else 0
         # free part of the numerical step: Ad s + P[n] − Bf0 f_n
@@ -103,11 +108,20 @@ def _step(n, s, f_n, zb, fb, Ad, Bf0, Bf1, P, Czx, th_lo, th_hi, a, c, h,
                 v -= A[i, j] * z_out[k, j]
             z_out[k, i] = v / A[i, i]
         # F_{n+1} = α z + β
+        bad = False
         for i in range(d):
             v = f_out[k, i]
             for j in range(d):
                 v += th[k, i, j] * z_out[k, j]
             f_out[k, i] = v
+            if not abs(v) <= limit[k]:
+                bad = True
+        if bad:  # this model's coupled run diverges: it stops here (NaN from now on)
+            diverged[k] = True
+            for j in range(d):
+                z_out[k, j] = np.nan
+                f_out[k, j] = np.nan
+            continue
         # numerical state s_{n+1} = Ad s + P − Bf0 f_n − Bf1 f_{n+1}
         for i in range(S):
             v = P[kp, n, i]
@@ -131,6 +145,44 @@ def _step(n, s, f_n, zb, fb, Ad, Bf0, Bf1, P, Czx, th_lo, th_hi, a, c, h,
                 fb[k, t, j] = fb[k, t - 1, j]
         for j in range(d):
             fb[k, 0, j] = f_out[k, j]
+
+
+@njit(cache=True, nogil=True)
+def _run(N, s, f_n, zb, fb, Ad, Bf0, Bf1, P, Czx, th_lo, th_hi, a, c, h, limit, diverged,
+         z_ref, f_ref):  # pragma: no cover - jit
+    K, S = s.shape
+    d = zb.shape[2]
+    tmp_s = np.zeros(S)
+    g = np.zeros(d)
+    A = np.zeros((d, d))
+    rhs = np.zeros(d)
+    z1 = np.zeros((K, d))
+    f1 = np.zeros((K, d))
+    for n in range(N):
+        _step(n, s, f_n, zb, fb, Ad, Bf0, Bf1, P, Czx, th_lo, th_hi, a, c, h, tmp_s, g, A,
+              rhs, z1, f1, limit, diverged)
+        z_ref[:, n + 1] = z1
+        f_ref[:, n + 1] = f1
+
+
+def couple_closed_form(num, part: LagPart, n_steps: int) -> dict[str, np.ndarray]:
+    """ẑ^r of K lag models (switches fixed at the start of the step) coupled exactly to
+    ``num`` (a :class:`~rths3d.numerical.LinearSubstructure`, exact discretisation): one
+    closed-form solve per step and test, the fixed point the interface iteration of
+    :func:`rths3d.reference.couple_exact` converges to (tested). Returns ``z_ref``, ``f_ref``
+    (K, N+1, d); a test whose force leaves ``part.limit`` is NaN from there on and flagged in
+    ``part.diverged``."""
+    if np.any(~part.lagged & np.isfinite(part.h)):
+        raise ValueError("closed-form coupling needs switches fixed at the start of the step")
+    K, d, N = part.K, part.d, int(n_steps)
+    z_ref = np.zeros((K, N + 1, d))
+    f_ref = np.zeros((K, N + 1, d))
+    s = np.zeros((K, num.s.shape[1]))
+    part.reset()
+    _run(N, s, np.zeros((K, d)), part.zb, part.fb, num.Ad, num.Bf0, num.Bf1, num.P, num.Czx,
+         part.th_lo, part.th_hi, part.a, part.c, part.h, part.limit, part.diverged, z_ref,
+         f_ref)
+    return {"z_ref": z_ref, "f_ref": f_ref}
 
 
 class OnlineReference:
@@ -176,6 +228,7 @@ class OnlineReference:
         self.z_ref[:] = 0.0
         self.f_ref[:] = 0.0
         self._part.reset()
+        self._part.diverged[:] = False
         for r in self._rms:
             r.reset()
 
@@ -185,7 +238,7 @@ class OnlineReference:
         p, num = self._part, self.num
         _step(n, self.s, self.f_n, p.zb, p.fb, num.Ad, num.Bf0, num.Bf1, num.P, num.Czx,
               p.th_lo, p.th_hi, p.a, p.c, p.h, self._tmp, self._g, self._A, self._rhs,
-              self.z_ref, self.f_ref)
+              self.z_ref, self.f_ref, p.limit, p.diverged)
         np.subtract(z_meas, self.z_ref, out=self._e)
         for k in range(self.K):
             self.value[k] = self._rms[k].update(self._e[k])
