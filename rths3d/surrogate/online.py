@@ -185,6 +185,43 @@ def couple_closed_form(num, part: LagPart, n_steps: int) -> dict[str, np.ndarray
     return {"z_ref": z_ref, "f_ref": f_ref}
 
 
+def coupled_radius(Ad: np.ndarray, Bf0: np.ndarray, Bf1: np.ndarray, Czx: np.ndarray,
+                   model: LagModel) -> float:
+    """Largest |eigenvalue| of the exactly coupled one-step map (numerical state, lag
+    buffers) of ``model`` in each of its regimes (the larger of the two).
+
+    With a passive part on a damped numerical substructure the reference decays in every
+    regime (the exchange's delay alone destabilises a test, and the reference has none), so
+    a radius above 1 says the identified model would make the surrogate reference grow
+    where the true one does not: its dynamics, unexcited in the record, are wrong.
+    ``Ad`` (S, S), ``Bf0``, ``Bf1`` (S, d), ``Czx`` (d, S): the exact discretisation.
+    """
+    d = model.theta_lo_.shape[0]
+    nb, na, S = model.nb, model.na, Ad.shape[0]
+    n_x = S + (nb + na) * d
+    C = Czx @ Bf1
+    radius = 0.0
+    for th in (model.theta_lo_, model.theta_hi_):
+        alpha = th[:, :d]
+        rest_z = th[:, d:nb * d]                  # z_n … z_{n−nb+2}
+        rest_f = th[:, nb * d:(nb + na) * d]      # F_n … F_{n−na+1}
+        X = np.eye(n_x)
+        s0 = X[:S]
+        zb = X[S:S + nb * d].reshape(nb, d, n_x)
+        fb = X[S + nb * d:].reshape(na, d, n_x)
+        beta = (rest_z @ zb[:nb - 1].reshape((nb - 1) * d, n_x) if nb > 1 else 0.0) + \
+            (rest_f @ fb.reshape(na * d, n_x) if na else 0.0)
+        f_n = fb[0] if na else np.zeros((d, n_x))
+        free = Ad @ s0 - Bf0 @ f_n
+        z1 = np.linalg.solve(np.eye(d) + C @ alpha, Czx @ free - C @ beta)
+        f1 = alpha @ z1 + beta
+        s1 = free - Bf1 @ f1
+        rows = [s1, z1] + [zb[t] for t in range(nb - 1)] + [f1] + [fb[t] for t in range(na - 1)]
+        T = np.vstack(rows)
+        radius = max(radius, float(np.max(np.abs(np.linalg.eigvals(T)))))
+    return radius
+
+
 class OnlineReference:
     """ẑ^r and the running RMS of ê one step at a time (see the module docstring).
 
