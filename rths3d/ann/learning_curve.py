@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError
-from .estimator import FidelityANN
+from .estimator import FidelityANN, combine_members
 from .scores import pearson_rho
 
 
@@ -90,7 +90,7 @@ def learning_curve(X: Any, y: Any, sizes: Sequence[int], *, n_test: int | None =
                                                                     progress=progress)
         seconds = time.perf_counter() - t0
         outs = model.predict_members(x, warn=False)
-        ens = outs.mean(axis=0)
+        ens = combine_members(outs, model.combine)
         tr = idx["train"]
         points.append(LearningPoint(
             n_train=int(tr.size), n_val=n_val,

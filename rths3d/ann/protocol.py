@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from .estimator import FidelityANN
+from .estimator import FidelityANN, combine_members
 from .scores import mse, pearson_rho
 
 PAPER_TABLE4: tuple[dict[str, Any], ...] = (
@@ -83,7 +83,7 @@ def _log_rho(a: np.ndarray, t: np.ndarray) -> float:
 def _members_rho(model: FidelityANN, X: Any, y: np.ndarray
                  ) -> tuple[list[float], float, float, list[float]]:
     outs = model.predict_members(X, warn=False)
-    mean = outs.mean(axis=0)
+    mean = combine_members(outs, model.combine)
     return ([pearson_rho(o, y) for o in outs], pearson_rho(mean, y), mse(mean, y),
             [_log_rho(o, y) for o in outs])
 

@@ -32,6 +32,16 @@ _LABELS: dict[str, tuple[str, str]] = {
     "velocity_peak": ("peak velocity max|ż|", "m/s, rad/s"),
     "force_peak": ("peak force max|F'_m|", "N, N·m"),
 }
+# the surrogate estimate (reference errors without the reference, rths3d.metrics.fidelity)
+_LABELS.update({
+    "e_rel_ref_hat": ("ê_rel,ref (surrogate estimate)", ""),
+    "e_mre_ref_hat": ("ê_MRE,ref (surrogate)", ""),
+    "e_peak_ref_hat": ("ê_peak,ref (surrogate)", ""),
+    "e_rel_ref_f_hat": ("ê_rel,ref,f (surrogate)", ""),
+    "e_rel_ref_hat_std": ("spread of ê_rel,ref over members", ""),
+    "surrogate_validation": ("part model output error, held out", ""),
+    "surrogate_members": ("surrogate members coupled", ""),
+})
 for _i in range(2, 10):
     _LABELS[f"j{_i}"] = (f"J{_i}", "%")
 
@@ -43,10 +53,20 @@ def metrics(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object (NaN/inf → "
                                  "null) instead of a table."),
     plot: Path | None = typer.Option(None, "--plot", help="Write ssp.png, fei.png and "
-                                     "time.png (SSP, FEI spectrum, time histories) here."),
+                                     "time.png (SSP, FEI spectrum, time histories) here, and "
+                                     "fidelity.png (the surrogate estimate at every step)."),
+    surrogate: bool = typer.Option(True, "--surrogate/--no-surrogate",
+                                   help="Estimate the reference errors without the reference "
+                                        "(the part identified from the record, coupled to "
+                                        "the numerical substructure); needs f_meas, the "
+                                        "numerical model and its load in the record."),
+    save_estimate: Path | None = typer.Option(
+        None, "--save-estimate", help="Write the record with the per-step estimate columns "
+                                      "(z_ref_hat, e_hat, e_hat_rms and its band) here "
+                                      "(.parquet or .csv)."),
 ) -> None:
     """Compute every accuracy measure of a RECORD (tracking, SSP, FEI, energy, reference,
-    susceptibility, J1–J9 where their inputs exist)."""
+    susceptibility, J1–J9 and the surrogate estimate where their inputs exist)."""
 
     from ..metrics import compute_measures
     from ..record import Record
@@ -57,6 +77,20 @@ def metrics(
         check_folder(plot, "--plot")
     keeper = Keeper()
     result = compute_measures(rec)
+    if surrogate or save_estimate is not None:
+        from ..errors import ConfigError
+        from ..metrics.fidelity import _flat, can_estimate
+        from ..surrogate import surrogate_reference
+
+        if can_estimate(rec):
+            rec, est = surrogate_reference(rec)
+            (result["aggregate"] if "aggregate" in result else result).update(_flat(est))
+        elif save_estimate is not None:
+            raise ConfigError("--save-estimate", str(save_estimate),
+                              "the record lacks f_meas, meta['numerical'] or its load "
+                              "p_num.<i>: no surrogate estimate")
+    if save_estimate is not None:
+        rec.save(save_estimate)
     paths = []
     if plot is not None:
         from ..metrics.plots import plot_record
@@ -67,6 +101,8 @@ def metrics(
         keeper.finish()
         return
     _table(rec, result, record)
+    if save_estimate is not None:
+        typer.echo(f"wrote {save_estimate}")
     for p in paths:
         typer.echo(f"wrote {p}")
     keeper.finish()

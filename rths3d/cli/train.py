@@ -25,9 +25,11 @@ def train(
                                              "folder; several are joined into one data set "
                                              "(a test in two of them is kept once)."),
     features: str = typer.Option(..., "--features",
-                                 help="Table-3 feature set: 1, 2 or 3, or Table-3 feature "
-                                      "names, e.g. 'e_rel_track,zeta,hsem_s' (a set chosen "
-                                      "on your data)."),
+                                 help="Table-3 feature set: 1, 2 or 3, or feature names, "
+                                      "e.g. 'e_rel_track,zeta,hsem_s' (a set chosen on your "
+                                      "data); a set and 'surrogate' may be listed: "
+                                      "'2,surrogate' adds the surrogate estimate "
+                                      "(physics-informed)."),
     out: Path = typer.Option(..., "--out", help="Model file to write (.json)."),
     as_json: bool = typer.Option(False, "--json", help="Print the scores as one JSON line."),
     topologies: str = typer.Option(None, "--topologies",
@@ -49,6 +51,10 @@ def train(
     transform: str = typer.Option("log", "--transform",
                                   help="log (default: compress heavy-tailed features and "
                                        "target first) or linear (the paper's [-1, 1] map)."),
+    combine: str = typer.Option("median", "--combine",
+                                help="How the ensemble combines its trainings per test: "
+                                     "median (default), mean or trimmed (mean without the "
+                                     "lowest and highest)."),
     bypass: bool = typer.Option(True, "--bypass/--no-bypass",
                                 help="Linear input-output weights besides the hidden layers "
                                      "(extrapolates along the trend); --no-bypass: the "
@@ -86,7 +92,7 @@ def train(
     from ..ann import FidelityANN, parse_topologies  # torch: after the cheap checks
 
     model = FidelityANN(topologies=parse_topologies(topologies), n_trainings=trainings,
-                        seed=seed, transform=transform, bypass=bypass)
+                        seed=seed, transform=transform, bypass=bypass, combine=combine)
     model.target_name = target
     model.fit(X, y, progress=not as_json)
     # a model the target refuses now is kept in a temporary folder (the error says where)
@@ -97,6 +103,7 @@ def train(
            "n_samples": int(len(y)),
            "features": chosen if isinstance(chosen, int) else list(chosen), "model": str(saved),
            "extra": [c for c in X.columns if c.startswith(PARAM)],
+           "combine": model.combine,
            "r_test_members": _med_worst(sc["members_r_test"]),
            "r_train_members": _med_worst(sc["members_r_train"]),
            "search": [{"hidden": list(s.hidden), "mean_val_mse": s.mean_val_mse}
@@ -127,8 +134,14 @@ def predict(
     model: Path = typer.Argument(..., help="Model file written by 'rths3d train'."),
     data: Path = typer.Argument(..., help="Sweep table, or one test record (.parquet/.csv)."),
     as_json: bool = typer.Option(False, "--json", help="Print the results as one JSON line."),
+    by: str = typer.Option(None, "--by",
+                           help="Score each group of this table column separately (default: "
+                                "'family' when the table has one)."),
 ) -> None:
-    """Predict the fidelity (e.g. e_rel,ref) with the ensemble mean and its spread."""
+    """Predict the fidelity (e.g. e_rel,ref) with the ensemble (median of its members) and
+    its spread; on a table with targets, ρ overall and per family (or --by column), per
+    member (median / worst), the share of tests outside the training ranges and ρ on the
+    tests inside them."""
     import warnings
 
     import numpy as np
@@ -203,7 +216,13 @@ def predict(
     if "test_id" in frame.columns:
         res["test_id"] = frame["test_id"].tolist()
     tcol = TARGET + net.target_name
+    if by is not None and by not in frame.columns:
+        raise ConfigError("--by", by, "not a column of this table (e.g. family, transfer, "
+                                      "param.transfer.delay)")
+    group_col = by if by is not None else ("family" if "family" in frame.columns else None)
     if tcol in frame.columns:
+        from ..ann.report import score_report
+
         t = frame[tcol].to_numpy(dtype=float)
         # one NaN target or prediction would make ρ and the MSE of the whole table NaN
         ok = np.isfinite(t) & np.isfinite(mean)
@@ -211,6 +230,17 @@ def predict(
             res["r"] = pearson_rho(mean[ok], t[ok])
             res["mse"] = float(np.mean((mean[ok] - t[ok]) ** 2))
             res["n_scored"] = int(ok.sum())
+            rep = score_report(net, X, t, frame[group_col].to_numpy()
+                               if group_col is not None else None)
+            res["r_log10"] = rep["r_log10"]
+            res["members"] = rep["members"]
+            res["members_log10"] = rep["members_log10"]
+            res["share_outside"] = rep["share_outside"]
+            res["r_in_range"] = rep["r_in_range"]
+            res["n_in_range"] = rep["n_in_range"]
+            if group_col is not None:
+                res["by"] = group_col
+                res["groups"] = rep["groups"]
     if as_json:
         typer.echo(json_line(res))
         return
@@ -223,3 +253,11 @@ def predict(
         scored = "" if res["n_scored"] == len(mean) else \
             f"  ({res['n_scored']} of {len(mean)} tests with finite target and prediction)"
         typer.echo(f"ρ = {res['r']:.4f}  MSE = {res['mse']:.3g}{scored}")
+        typer.echo(f"members ρ median {res['members']['median']:.4f} worst "
+                   f"{res['members']['worst']:.4f}; {100 * res['share_outside']:.1f} % of the "
+                   f"tests outside the training ranges, ρ in range {res['r_in_range']:.4f} "
+                   f"({res['n_in_range']} tests)")
+        for g, r in res.get("groups", {}).items():
+            typer.echo(f"  {res['by']} {g}: ρ {r['r']:.4f} (log10 {r['r_log10']:.4f}), "
+                       f"members {r['members']['median']:.4f} / {r['members']['worst']:.4f}, "
+                       f"{r['n']} tests, {100 * r['share_outside']:.1f} % outside")

@@ -4,8 +4,10 @@ This is the function a local worker process or a Dask worker executes. It loads 
 base scene, applies the test's dotted-key overrides (and the sweep's duration and transfer
 kind), runs the batch through :func:`rths3d.loop.run_batch` (compatible tests stepped
 together) and turns every record into one row: ``param.*``, ``feature.*`` (Table-3 set 1,
-which contains sets 2 and 3), ``target.*`` (reference errors), ``measure.*`` (every other
-scalar measure) and ``status``/``reason``. A test that stops (safety limit, divergence) or
+which contains sets 2 and 3, and the surrogate inputs :data:`~rths3d.metrics.SURROGATE`:
+the reference error estimated from a surrogate of the part identified from the record,
+:mod:`rths3d.metrics.fidelity`), ``target.*`` (reference errors), ``measure.*`` (every
+other scalar measure) and ``status``/``reason``. A test that stops (safety limit, divergence) or
 whose parameters are invalid is kept as a row with its reason.
 """
 
@@ -17,9 +19,13 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..errors import RthsError
+from ..metrics.features import INPUTS
+from ..metrics.fidelity import KEYS as SURROGATE_MEASURES
 from .spec import SweepSpec
-from .table import COMP, FEATURE, MEASURE, PARAM, SET_1, TARGET, TARGETS, compensator_columns
+from .table import COMP, FEATURE, MEASURE, PARAM, TARGET, TARGETS, compensator_columns
 
 THREADS_ENV = "RTHS3D_THREADS"
 """Environment variable: threads of a batch's MuJoCo thread pool (0 or unset: 2). Local
@@ -73,12 +79,15 @@ def _row(test: dict[str, Any], status: str, reason: str, measures: dict[str, flo
     for k in all_params:
         v = test["params"].get(k)
         row[PARAM + k] = math.nan if v is None else _param_value(v)
-    for k in SET_1:
+    for k in INPUTS:
         row[FEATURE + k] = measures.get(k, math.nan)
     for k in TARGETS:
         row[TARGET + k] = measures.get(k, math.nan)
+    for k in SURROGATE_MEASURES:
+        if k not in INPUTS:
+            row[MEASURE + k] = measures.get(k, math.nan)
     for k, v in sorted(measures.items()):
-        if k not in SET_1 and k not in TARGETS:
+        if k not in INPUTS and k not in TARGETS and k not in SURROGATE_MEASURES:
             row[MEASURE + k] = v
     return row
 
@@ -101,8 +110,6 @@ def run_rows(spec: SweepSpec, tests: list[dict[str, Any]], records_dir: str | No
 
     ``progress``: called now and then with the tests' worth of work done since its last call
     (simulated time over the duration; see :func:`rths3d.loop.run_batch`)."""
-    import numpy as np
-
     # NaN/inf of unstable tests are detected and reported, not raised
     with np.errstate(all="ignore"):
         return _run_rows(spec, tests, records_dir, progress)
@@ -139,6 +146,7 @@ def _run_rows(spec: SweepSpec, tests: list[dict[str, Any]], records_dir: str | N
                     results.append(run_batch(base, [ps], nthread=nthread)[0])
                 except RthsError as exc:
                     results.append(exc)
+        measured = {}
         for i, res in zip(idx, results, strict=True):
             if isinstance(res, Exception):
                 # a test that did not run: its compensator as its parameters name it
@@ -147,9 +155,36 @@ def _run_rows(spec: SweepSpec, tests: list[dict[str, Any]], records_dir: str | N
                 rows[i] = _row(tests[i], "error", str(res), {}, all_params,
                                {COMP + "name": str(name)})
                 continue
-            status, reason, meas = _measure(res)
+            measured[i] = _measure(res)
+        # the surrogate estimate of every finished test, identified one by one and coupled
+        # together (one interface iteration for the batch)
+        done = [i for i, (status, _, _) in measured.items() if status == "ok"]
+        for i, extra in zip(done, _surrogate([results[idx.index(i)].record for i in done]),
+                            strict=True):
+            measured[i][2].update(extra)
+        for i, (status, reason, meas) in measured.items():
+            res = results[idx.index(i)]
             rows[i] = _row(tests[i], status, reason, meas, all_params,
                            compensator_columns(res.record))
             if records_dir:
                 res.record.save(Path(records_dir) / f"{tests[i]['test_id']}.parquet")
     return rows  # type: ignore[return-value]
+
+
+def _surrogate(records: list) -> list[dict[str, float]]:
+    """Surrogate estimates of finished tests (:func:`rths3d.metrics.surrogate_measures`);
+    a failure leaves that test's estimate out (NaN columns), not the batch."""
+    from ..metrics.fidelity import surrogate_measures
+
+    if not records:
+        return []
+    try:
+        return surrogate_measures(records)  # type: ignore[return-value]
+    except (RthsError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+        out = []
+        for r in records:
+            try:
+                out.append(surrogate_measures(r))
+            except (RthsError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+                out.append({})
+        return out

@@ -10,12 +10,15 @@ Column families of a sweep table (one row per test):
     the swept scene and transfer-system settings (SI units, as in the scene TOML).
 ``feature.<name>``
     indicators available without a reference solution (Table 3 rows; names from
-    :func:`rths3d.metrics.feature_row`).
+    :func:`rths3d.metrics.feature_row`) and the surrogate inputs ``e_rel_ref_hat``,
+    ``e_rel_ref_hat_std``, ``surrogate_validation`` (:mod:`rths3d.metrics.fidelity`).
 ``target.<name>``
     reference errors (need the reference solution): ``e_rel_ref`` (the ANN target,
     eq. 1 with z^r), ``e_mre_ref``, ``e_peak_ref``, ``e_rel_ref_f``.
 ``measure.<name>``
-    every other measure of the record, among them the bench load ``stroke_peak`` (m),
+    every other measure of the record, among them the other surrogate estimates
+    (``e_mre_ref_hat``, ``e_peak_ref_hat``, ``e_rel_ref_f_hat``, ``surrogate_members``) and
+    the bench load ``stroke_peak`` (m),
     ``velocity_peak`` (m/s) and ``force_peak`` (N) that :func:`within_ratings` compares
     with a bench's ratings.
 ``comp_name``, ``comp_mode``, ``comp_<coef>_final``, ``comp_<coef>_final.<channel>``
@@ -74,13 +77,27 @@ def feature_names(feature_set: int | Sequence[str]) -> tuple[str, ...]:
 
 
 def parse_features(text: str, field: str = "--features") -> int | tuple[str, ...]:
-    """``'2'`` → ``2`` (a Table-3 set); ``'e_rel_track,zeta'`` → those Table-3 features, in
-    the order given; a ConfigError naming ``field`` for anything else."""
+    """``'2'`` → ``2`` (a Table-3 set); ``'e_rel_track,zeta'`` → those features, in the
+    order given; a set number or ``surrogate`` inside a list expands to its names
+    (``'2,surrogate'``: set 2 and the surrogate inputs, a physics-informed set); a
+    ConfigError naming ``field`` for anything else."""
+    from ..metrics.features import SURROGATE
+
     text = text.strip()
     if text.isdigit():
         _feature_names(int(text), field=field)  # 1, 2 or 3, else the error
         return int(text)
-    return _feature_names([n.strip() for n in text.split(",") if n.strip()], field=field)
+    names: list[str] = []
+    for tok in (n.strip() for n in text.split(",")):
+        if not tok:
+            continue
+        if tok.isdigit():
+            names += _feature_names(int(tok), field=field)
+        elif tok == "surrogate":
+            names += SURROGATE
+        else:
+            names.append(tok)
+    return _feature_names(names, field=field)
 
 
 def compensator_columns(record: Any) -> dict[str, Any]:

@@ -37,25 +37,34 @@ SET_3: tuple[str, ...] = ("e_rel_track", "e_mte_track", "e_rel_track_f", "fei_d"
 FEATURE_SETS: dict[int, tuple[str, ...]] = {1: SET_1, 2: SET_2, 3: SET_3}
 """Feature set number → measure names (keys of :func:`rths3d.metrics.compute_measures`)."""
 
+SURROGATE: tuple[str, ...] = ("e_rel_ref_hat", "e_rel_ref_hat_std", "surrogate_validation")
+"""Reference-free inputs beyond Table 3 (:mod:`rths3d.metrics.fidelity`): the surrogate
+estimate ê_rel,ref, its spread over members and the part model's held-out output error. The
+paper's sets 1–3 do not contain them; a physics-informed set is a Table-3 set plus these."""
+
+INPUTS: tuple[str, ...] = SET_1 + SURROGATE
+"""Every name a feature list may hold: Table 3 and the surrogate inputs."""
+
 TARGETS: tuple[str, ...] = ("e_rel_ref", "e_mre_ref", "e_peak_ref", "e_rel_ref_f")
 """Reference errors (need z^r); ``e_rel_ref`` is the paper's ANN target."""
 
 
 def feature_names(feature_set: int | Sequence[str], field: str = "set") -> tuple[str, ...]:
-    """Names of Table-3 feature set 1, 2 or 3, or of a chosen subset of Table 3 given as
-    names (e.g. a set 3 chosen on one's own data, as the paper chose its set 3 by
-    sensitivity); ``field`` names the input in the error."""
+    """Names of Table-3 feature set 1, 2 or 3, or of a chosen list of inputs given as names:
+    Table-3 features (e.g. a set 3 chosen on one's own data, as the paper chose its set 3 by
+    sensitivity) and the surrogate inputs :data:`SURROGATE`; ``field`` names the input in
+    the error."""
     from ..errors import ConfigError
 
     if isinstance(feature_set, str):
         feature_set = [feature_set]
     if not isinstance(feature_set, int):
         names = tuple(feature_set)
-        unknown = [n for n in names if n not in SET_1]
+        unknown = [n for n in names if n not in INPUTS]
         if not names or unknown:
             raise ConfigError(field, unknown[0] if unknown else "",
-                              "a feature set 1, 2, 3 or Table-3 feature names: "
-                              + ", ".join(SET_1))
+                              "a feature set 1, 2, 3 or Table-3 feature names and "
+                              "surrogate inputs: " + ", ".join(INPUTS))
         if len(set(names)) != len(names):
             raise ConfigError(field, ",".join(names), "each feature at most once")
         return names

@@ -39,6 +39,7 @@ data (zero normaliser) is NaN.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -47,7 +48,7 @@ from ..errors import ConfigError, RecordError
 from ..record import Record
 from . import bench, energy, frequency, reference, ssp, susceptibility, tracking
 from ._signals import col_mean
-from .features import feature_names
+from .features import SURROGATE, feature_names
 
 SYSTEM_KEYS: tuple[str, ...] = (
     "phi", "kappa", "zeta", "omega_num", "omega_dyn", "tau_ratio_num", "tau_ratio_dyn",
@@ -207,8 +208,14 @@ def _criteria(record: Record, z: np.ndarray, zp: np.ndarray, zr: np.ndarray | No
     return res
 
 
-def compute_measures(record: Record, **context: Any) -> dict[str, Any]:
+def compute_measures(record: Record, *, surrogate: bool = False, **context: Any
+                     ) -> dict[str, Any]:
     """Every measure the record has inputs for (see the module docstring for keys and units).
+
+    ``surrogate=True`` adds the reference errors estimated without the reference
+    (:mod:`.fidelity`: ``e_rel_ref_hat``, its spread ``e_rel_ref_hat_std``,
+    ``surrogate_validation``, …; the aggregate of a multi-DOF record), when the record has
+    the numerical substructure and its load (identification and coupling take ~0.1–1 s).
 
     Keys (where inputs exist): ``e_rel_track``, ``e_mte_track``, ``e_peak_track``,
     ``e_rel_track_f``, ``ti``, ``theta_pc``, ``paei_phase`` (rad), ``paei_amp``, ``fei_A``,
@@ -314,6 +321,10 @@ def compute_measures(record: Record, **context: Any) -> dict[str, Any]:
                 row[key] = susceptibility.tau_ratio(row["fei_d"], system[w])
         if "tau_max" in system:
             row["tau_ratio_max"] = susceptibility.tau_ratio_max(row["fei_d"], system["tau_max"])
+    if surrogate and fm is not None:
+        from .fidelity import surrogate_measures
+
+        system.update(surrogate_measures(record))
     if nd == 1:
         flat = dict(dof_dicts[dofs[0]])
         flat.update(system)
@@ -422,13 +433,18 @@ def _eei(record: Record, context: dict, meta: dict, fm: np.ndarray | None, zp: n
     return energy.eei(float(res[-1]), e_str)
 
 
-def feature_row(record: Record, set: int = 1, **context: Any) -> dict[str, float]:  # noqa: A002
-    """One row of Table-3 feature set ``set`` (1, 2 or 3) for one test.
+def feature_row(record: Record, set: int | Sequence[str] = 1,  # noqa: A002
+                **context: Any) -> dict[str, float]:
+    """One row of Table-3 feature set ``set`` (1, 2 or 3, or a list of names, which may hold
+    the surrogate inputs :data:`~rths3d.metrics.features.SURROGATE`) for one test.
 
-    Values come from :func:`compute_measures` (its aggregate for a multi-DOF record); a feature
-    whose inputs are missing is NaN. Keys in the order of :data:`FEATURE_SETS`.
+    Values come from :func:`compute_measures` (its aggregate for a multi-DOF record; the
+    surrogate estimate computed when asked for); a feature whose inputs are missing is NaN.
+    Keys in the order of the set.
     """
     names = feature_names(set)
+    if any(n in SURROGATE for n in names):
+        context.setdefault("surrogate", True)
     m = compute_measures(record, **context)
     flat = m["aggregate"] if "aggregate" in m else m
     return {k: float(flat.get(k, math.nan)) for k in names}

@@ -1,4 +1,5 @@
-"""Pictures of a record's tracking: SSP, FEI spectrum and time histories (matplotlib, Agg).
+"""Pictures of a record's tracking: SSP, FEI spectrum, time histories and the estimated
+fidelity at every time step (matplotlib, Agg).
 
 Each function writes one PNG with one row of panels per interface DOF and returns its path.
 The SSP is drawn with z on the horizontal axis and z' on the vertical axis (a lagging
@@ -150,9 +151,59 @@ def plot_time(record: Record, path: str | Path) -> Path:
     return save_figure(fig, path)
 
 
+def plot_fidelity(record: Record, path: str | Path, window: float = 0.25) -> Path:
+    """Fidelity at every time step, per DOF: z' with the surrogate reference ẑ^r (and z^r if
+    the record has it); the estimated error ê = z' − ẑ^r; its running RMS over ``window`` s
+    with the band over the surrogate's members (and the true running RMS of z' − z^r beside
+    it, when z^r is known). Needs the columns of
+    :func:`rths3d.surrogate.fidelity_columns` (``z_ref_hat``, ``e_hat``, ``e_hat_rms``)."""
+    from ..surrogate.running import running_rms
+
+    dofs = record.dofs
+    t = record.t
+    fig, axes = _figure(3, len(dofs), height=2.6, width=7.0)
+    for j, d in enumerate(dofs):
+        u = UNITS.get(d, "")
+        c = record.columns
+        zp, zh, eh = c[f"z_meas.{d}"], c[f"z_ref_hat.{d}"], c[f"e_hat.{d}"]
+        zr = c.get(f"z_ref.{d}")
+        ax = axes[0, j]
+        ax.plot(t, zp, lw=0.9, label="z' achieved")
+        ax.plot(t, zh, lw=0.9, ls="--", label="ẑ^r surrogate reference")
+        if zr is not None:
+            ax.plot(t, zr, lw=0.8, ls=":", color="k", label="z^r reference")
+        ax.set_ylabel(f"{d} ({u})")
+        ax.set_title(f"interface displacement, {d}", fontsize=9)
+        ax = axes[1, j]
+        ax.plot(t, eh, lw=0.8, color="tab:red", label="ê = z' − ẑ^r")
+        if zr is not None:
+            ax.plot(t, zp - zr, lw=0.8, ls=":", color="k", label="e = z' − z^r")
+        ax.set_ylabel(f"error ({u})")
+        ax = axes[2, j]
+        if f"e_hat_rms_lo.{d}" in c:
+            ax.fill_between(t, c[f"e_hat_rms_lo.{d}"], c[f"e_hat_rms_hi.{d}"],
+                            color="tab:red", alpha=0.25, lw=0, label="members' band")
+        ax.plot(t, c[f"e_hat_rms.{d}"], lw=1.0, color="tab:red",
+                label=f"running RMS of ê ({window:g} s)")
+        if zr is not None:
+            ax.plot(t, running_rms(zp - zr, record.dt, window), lw=0.9, ls=":", color="k",
+                    label="running RMS of z' − z^r")
+        ax.set_ylabel(f"running RMS ({u})")
+        ax.set_xlabel("t (s)")
+        for a in axes[:, j]:
+            a.grid(alpha=0.3)
+            a.legend(fontsize=7, loc="upper right")
+    return save_figure(fig, path)
+
+
 def plot_record(record: Record, out_dir: str | Path) -> list[Path]:
-    """Write ``ssp.png``, ``fei.png`` and ``time.png`` into ``out_dir``; return the paths."""
+    """Write ``ssp.png``, ``fei.png`` and ``time.png`` into ``out_dir`` (and ``fidelity.png``
+    when the record carries the surrogate's per-step columns); return the paths."""
     d = Path(out_dir)
     d.mkdir(parents=True, exist_ok=True)
-    return [plot_ssp(record, d / "ssp.png"), plot_fei(record, d / "fei.png"),
-            plot_time(record, d / "time.png")]
+    paths = [plot_ssp(record, d / "ssp.png"), plot_fei(record, d / "fei.png"),
+             plot_time(record, d / "time.png")]
+    if record.has("e_hat_rms"):
+        window = (record.meta.get("surrogate") or {}).get("window", 0.25)
+        paths.append(plot_fidelity(record, d / "fidelity.png", float(window)))
+    return paths
