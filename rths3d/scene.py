@@ -53,6 +53,7 @@ __all__ = [
     "load_scene",
     "scene_from_dict",
     "scene_to_dict",
+    "scene_to_toml",
     "scene_with",
     "transfer_kinds",
 ]
@@ -532,3 +533,35 @@ def scene_with(scene: Scene, overrides: Mapping[str, Any] | Sequence[str],
             nm.pop(leaf.upper())
     raw = apply_overrides(raw, overrides)
     return scene_from_dict(raw, name=scene.name, source=scene.source)
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(f"no TOML form for {type(v).__name__}")
+
+
+def scene_to_toml(scene: Scene) -> str:
+    """The scene as TOML text that :func:`load_scene` reads back to the same scene (its
+    ``[[effect]]`` tables included)."""
+    d = scene_to_dict(scene)
+    lines = [f"# rths3d scene {scene.name!r}"]
+    for key in ("name", "dofs", "dt", "duration"):
+        lines.append(f"{key} = {_toml_value(d[key])}")
+    for sec in ("numerical", "excitation", "experiment", "transfer", "sensor", "safety"):
+        lines += ["", f"[{sec}]"]
+        lines += [f"{k} = {_toml_value(v)}" for k, v in d[sec].items()]
+    for tab in d.get("effect", []):
+        lines += ["", "[[effect]]"]
+        lines += [f"{k} = {_toml_value(v)}" for k, v in tab.items()]
+    return "\n".join(lines) + "\n"

@@ -1,4 +1,12 @@
-"""Measurements in: load a record file and check the channels the diagnosis needs."""
+"""Measurements in: load a record file and check the channels the diagnosis needs.
+
+A measurement is a record (:mod:`rths3d.record`, Parquet or CSV + ``.meta.json``) with the
+commanded pose (``pose_cmd.<dof>`` of all six DOFs, or ``z_cmd.<dof>`` of the interface DOFs)
+and measured channels, zeroed the way a bench zeroes them (docs/diagnosis.md): ``z_meas``
+from the measured rest pose, ``f_meas`` and ``leg_force`` tared at rest, ``pose_meas``
+absolute (relative to the nominal home), ``leg_len`` as the encoders read, ``fts`` zeroed
+unloaded.
+"""
 
 from __future__ import annotations
 
@@ -7,50 +15,63 @@ import warnings
 
 import numpy as np
 
-from ..effects.library import OUTPUTS
+from ..effects import WRENCH
 from ..errors import RecordError
-from ..record import Record
+from ..record import DOFS, Record
 
-COMMAND = "z_cmd.z"
-"""Commanded interface displacement (m): the input replayed through the model."""
+MEASURED: tuple[str, ...] = (
+    *(f"z_meas.{d}" for d in DOFS), *(f"f_meas.{d}" for d in DOFS),
+    *(f"pose_meas.{d}" for d in DOFS), *(f"leg_len.{i}" for i in range(6)),
+    *(f"leg_force.{i}" for i in range(6)), *(f"fts.{c}" for c in WRENCH))
+"""Every measured channel the diagnosis compares (when present and produced by the model)."""
 
-LIMITS: dict[str, tuple[float, str]] = {
-    "z_cmd.z": (0.5, "m"), "z_meas.z": (0.5, "m"),
-    "f_meas.z": (1e5, "N"), "f_meas.x": (1e5, "N"),
-    **{f"leg_force.{i}": (1e6, "N") for i in range(6)},
-}
-"""Largest plausible absolute value per channel; larger values usually mean mm or kN."""
+_LIMITS = {"z_meas": (0.5, "m or rad"), "pose_meas": (0.5, "m or rad"),
+           "z_cmd": (0.5, "m or rad"), "pose_cmd": (0.5, "m or rad"),
+           "f_meas": (1e5, "N or N·m"), "fts": (1e5, "N or N·m"),
+           "leg_force": (1e6, "N"), "leg_len": (5.0, "m")}
+"""Largest plausible absolute value per signal; larger values usually mean mm or kN."""
 
 MIN_DURATION = 1.0
 """Shortest measurement the diagnosis accepts (s): it needs training and validation blocks."""
 
 
+def commands(rec: Record) -> tuple[str, ...]:
+    """The command columns the replay uses: ``pose_cmd.*`` (all six) or ``z_cmd.*``."""
+    if all(f"pose_cmd.{d}" in rec.columns for d in DOFS):
+        return tuple(f"pose_cmd.{d}" for d in DOFS)
+    return tuple(f"z_cmd.{d}" for d in DOFS if f"z_cmd.{d}" in rec.columns)
+
+
 def check_measurement(rec: Record, source: str = "measurement") -> tuple[str, ...]:
-    """Check a record for diagnosis; returns the measured output channels present.
+    """Check a record for diagnosis; returns the measured channels present.
 
     Raises :class:`RecordError` naming the column, the value and the limit for a missing
-    command, no measured channel, implausible units, a constant channel or a record too short.
+    command, no measured channel, implausible units, a constant command or a record too short.
     """
-    if COMMAND not in rec.columns:
-        raise RecordError(f"{source}: missing column {COMMAND!r} (commanded displacement, m); "
-                          "the diagnosis replays it through the model")
-    channels = tuple(c for c in OUTPUTS if c in rec.columns)
+    cmd = commands(rec)
+    if not cmd:
+        raise RecordError(f"{source}: missing command columns: need pose_cmd.<dof> (all six) "
+                          "or z_cmd.<dof> (m, rad); the diagnosis replays them through the "
+                          "bench")
+    channels = tuple(c for c in MEASURED if c in rec.columns)
     if not channels:
-        raise RecordError(f"{source}: no measured channel; expected at least one of "
-                          + ", ".join(OUTPUTS))
+        raise RecordError(f"{source}: no measured channel; expected some of z_meas.<dof>, "
+                          "f_meas.<dof>, pose_meas.<dof>, leg_len.<i>, leg_force.<i>, "
+                          "fts.<fx..tz>")
     if rec.duration < MIN_DURATION:
         raise RecordError(f"{source}: duration {rec.duration:.3g} s is too short "
                           f"(at least {MIN_DURATION:g} s needed)")
-    for name in (COMMAND, *channels):
+    for name in (*cmd, *channels):
         x = rec.columns[name]
-        limit, unit = LIMITS[name]
+        sig = name.split(".")[0]
+        limit, unit = _LIMITS[sig]
         peak = float(np.max(np.abs(x)))
         if peak > limit:
             raise RecordError(f"{source}: column {name!r} reaches {peak:.6g} {unit}, beyond "
                               f"the plausible limit {limit:g} {unit} (SI units expected)")
-        if name in (COMMAND, "z_meas.z") and np.ptp(x) == 0.0:
-            raise RecordError(f"{source}: column {name!r} is constant ({x[0]:.6g} {unit}); "
-                              "nothing to diagnose")
+    if all(np.ptp(rec.columns[c]) == 0.0 for c in cmd):
+        raise RecordError(f"{source}: the command ({', '.join(cmd)}) is constant; nothing to "
+                          "diagnose")
     return channels
 
 

@@ -127,8 +127,10 @@ class CoulombFriction(Effect):
         for i in _legs(leg):
             j = spec.joint(f"leg{i}_slide")
             j.frictionloss = value
-            # a stiff friction constraint, so F_c is reached at small slip velocities
-            j.solref_friction = np.array([2.0 * ctx.physics_step, 1.0])
+            # a stiff friction constraint, so F_c is reached at small slip velocities; its
+            # time constant is two interface steps whatever the physics step, so that runs
+            # with different substeps model the same friction
+            j.solref_friction = np.array([2.0 * ctx.platform.dt, 1.0])
 
 
 @register
