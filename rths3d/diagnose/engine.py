@@ -57,10 +57,13 @@ def default_candidates(scene: Scene) -> list[str]:
     left out."""
     out: list[str] = []
     contact = scene.experiment.kind in ("contact", "multidof")
+    spring = scene.experiment.kind in ("contact", "linear", "multidof")
     for name, eff in REGISTRY.items():
         if not eff.candidate or eff.stage == "geometry" and name != "leg_offset":
             continue
         if eff.stage == "fts" or (name == "contact_gap" and not contact):
+            continue
+        if name in ("specimen_stiffness", "specimen_damping") and not spring:
             continue
         for leg, axis in eff.targets():
             out.append(name + (f".leg{leg}" if leg >= 0 else "") + (f".{axis}" if axis else ""))
@@ -94,6 +97,8 @@ class Candidate:
     significant: bool = False
     note: str = ""
     channel_share: dict[str, float] = field(default_factory=dict)
+    detail: list[str] = field(default_factory=list)
+    """Further facts (e.g. the kinematic calibration's identifiability report)."""
 
     @property
     def leg(self) -> int:
@@ -306,19 +311,21 @@ class Diagnosis:
             return None
         bench = self.replay.bench(_configs({**self.base_effects, **self.accepted}))
         nominal = bench.true_geometry()
-        rows = np.flatnonzero(self.train)[:: max(1, int(0.02 / self.dt))]
+        rows = np.flatnonzero(self.train)[:: max(1, int(0.005 / self.dt))]
         q = np.column_stack([self.measured[f"pose_meas.{d}"][rows] for d in DOFS])
         L = np.column_stack([self.measured[f"leg_len.{i}"][rows] for i in range(6)])
         sig = float(np.median([self.sigma[f"leg_len.{i}"] for i in range(6)]))
         try:
-            cal = KinematicCalibration(nominal, sigma=max(sig, 1e-7),
+            # a prior of 2 mm (manufacturing tolerance) keeps what the poses cannot see near
+            # the drawing; the identifiability report says which parameters those are
+            cal = KinematicCalibration(nominal, sigma=max(sig, 1e-7), prior_sigma=2e-3,
                                        tolerance=1e-4).fit(q, L)
         except ConfigError:
             return None
         self.kinematic_ = cal
         out: dict[str, float] = {}
-        for name, dev, std in zip(parameter_names(), cal.deviation_, cal.std_, strict=True):
-            if not (std <= 1e-4 and abs(dev) > max(3 * std, 2e-7)):
+        for name, dev in zip(parameter_names(), cal.deviation_, strict=True):
+            if abs(dev) <= 1e-7:
                 continue
             kind, rest = name.split("[")  # base_anchor[i].x, top_anchor[i].z, leg_offset[i]
             leg = int(rest[0])
@@ -490,6 +497,8 @@ class Diagnosis:
                     cands[lab] = Candidate(lab, "θ", "m" if lab[0] == "k" else "1",
                                            values=vals, k=len(vals))
                     trials[lab] = {**self.accepted, **vals}
+                    if lab == "kinematic_calibration":
+                        cands[lab].detail = self.kinematic_.report_.lines()
                 continue
             name = lab.split(".")[0]
             eff = get_effect(name)
