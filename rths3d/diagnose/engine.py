@@ -537,7 +537,9 @@ class Diagnosis:
             off, p = eff.param.off, probes[lab]
             alpha = rd / dd
             if math.isinf(off):
-                v = p if alpha > 0.5 else eff.param.hi
+                # no linear scale from an infinite off value: a second point beside the
+                # probe, so that the secant refit has a slope
+                v = 0.95 * p if alpha > 0.5 else eff.param.hi
             else:
                 v = off + alpha * (p - off)
             est[lab] = float(np.clip(v, eff.param.lo, eff.param.hi))
@@ -670,8 +672,20 @@ class Diagnosis:
 
             L = inverse_kinematics(self.scene_geometry, self.replay.poses)
             v = np.abs(np.diff(L, axis=0)) / self.dt
-            vm = v.max() if leg < 0 else v[:, leg].max()
-            return float(np.clip(0.8 * vm, eff.param.lo, eff.param.hi))
+            legs = range(6) if leg < 0 else [leg]
+            vc = max(float(v[:, i].max()) for i in legs)
+            guess = 0.8 * vc
+            # signature: the encoders' peak speed (over 5 samples, so the noise averages)
+            # below the commanded one is the limit itself
+            m = 5
+            enc = [f"leg_len.{i}" for i in legs if f"leg_len.{i}" in self.measured]
+            if enc:
+                vm = max(float(np.percentile(np.abs(
+                    self.measured[c][m:] - self.measured[c][:-m]) / (m * self.dt), 99.8))
+                         for c in enc)
+                if vm < 0.97 * vc:
+                    guess = vm
+            return float(np.clip(guess, eff.param.lo, eff.param.hi))
         return eff.probe_value()
 
     @property
