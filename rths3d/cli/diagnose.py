@@ -19,7 +19,7 @@ def diagnose(
              "in the record's metadata (scene, part, leg servos, effects); a fallback to a "
              "default is a warning naming it. Replayed through the Stewart platform."),
     add: list[str] = typer.Option([], "--add",
-                                  help="EFFECT[.leg<i>][.<axis>] (fitted) or ...=value (held "
+                                  help="`EFFECT[.leg<i>][.<axis>]` (fitted) or `...=value` (held "
                                        "at value, SI unit), or kinematic_calibration / "
                                        "fts_calibration; repeatable."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object."),
