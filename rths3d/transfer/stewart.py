@@ -137,6 +137,9 @@ class StewartTransfer:
     def batch_key(cls, settings: Mapping[str, Any]) -> Hashable:
         s = settings
         comp = compensator_class(s.get("transfer.compensation", "none"))
+        # per-test values (controller blocks), but numbers: a ConfigError names a bad one
+        for key in ("transfer.delay", "transfer.timeconst", "transfer.kp", "transfer.kv"):
+            setting(s, key, 0.0)
         effects = sorted({name for name, _, v in effect_labels(s)
                           if not get_effect(name).is_off(v) and
                           (get_effect(name).stage in ("setpoint", "fts", "sensor", "noise")
