@@ -156,21 +156,31 @@ class BenchReplay:
         f = np.zeros((K, n))
         stop = np.full(K, N)
         P = self.poses
+        # the forces of step r are read after step r + 1 (its start is step r's end:
+        # PlatformBatch._advance(sample=False)), the pose right after step r
         for r in range(1, N):
             sim.poses[:] = P[r]
-            sim._advance()
-            sim.read(idx, z, f)
+            sim._advance(sample=False)
+            sim._read_fts()
+            sim.read_start(idx, z, f)
             zz[r] = z
-            ff[r] = f if sensor.empty else sensor(f)
             q[r] = sim.plate_qpos
             lq[r] = sim._legs_q
-            lf[r] = sim._legs_f
-            ft[r] = sim.fts_reading
+            if r >= 2:
+                ff[r - 1] = f if sensor.empty else sensor(f)
+                lf[r - 1] = sim.leg_force_sensor
+                ft[r - 1] = sim.fts_reading
             if sim._any_stopped:
                 for k in np.flatnonzero(sim.stopped & (stop == N)):
                     stop[k] = r
                 if sim.stopped.all():
                     break
+        sim.batch.forward()
+        sim._read_fts()
+        sim.read(idx, z, f)
+        ff[N - 1] = f if sensor.empty else sensor(f)
+        lf[N - 1] = sim._legs_f
+        ft[N - 1] = sim.fts_reading
         pose = plate_pose(q, sim._hh)
         home = sim._home
         out = []

@@ -340,6 +340,11 @@ def model_xml(config: PlatformConfig, payload_xml: str | None = None,
         f'gaintype="fixed" gainprm="{a.kp:.12g}" biastype="affine" '
         f'biasprm="0 {-a.kp:.12g} {-a.kv:.12g}"/>' for i in range(6))
     fts_r = 0.05
+    # the leg forces and the sensor's orientation as sensors too: evaluated only at the start
+    # of a step (RK4's later stages overwrite actuator_force and site_xmat), so a replay can
+    # read a step's end-of-step sample at the start of the next (rths3d.platform.sim)
+    legsens = "\n".join(f'    <actuatorfrc name="leg{i}_force" actuator="leg{i}"/>'
+                         for i in range(6))
     return f"""<mujoco model="rths3d_stewart">
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{ts:.12g}" integrator="{config.integrator}"
@@ -385,6 +390,8 @@ def model_xml(config: PlatformConfig, payload_xml: str | None = None,
   <sensor>
     <force name="fts_force" site="fts"/>
     <torque name="fts_torque" site="fts"/>
+{legsens}
+    <framequat name="fts_quat" objtype="site" objname="fts"/>
   </sensor>
 </mujoco>
 """

@@ -93,6 +93,8 @@ class _Ids:
         self.fts_site = model.site("fts").id
         self.force_adr = int(model.sensor_adr[model.sensor("fts_force").id])
         self.torque_adr = int(model.sensor_adr[model.sensor("fts_torque").id])
+        self.legf_adr = int(model.sensor_adr[model.sensor("leg0_force").id])
+        self.quat_adr = int(model.sensor_adr[model.sensor("fts_quat").id])
         mech = []
         for i in range(6):
             for j in ("u1", "u2", "slide"):
@@ -297,6 +299,22 @@ def end_ramp(cnew, cprev, act, s0, run):
             for i in range(6):
                 act[k, s0 + i] = cnew[k, i]
                 cprev[k, i] = cnew[k, i]
+
+
+@njit
+def quat_rows(q, R):
+    """Row-major rotation matrices (K, 9) of unit quaternions (K, 4) (w, x, y, z)."""
+    for k in range(q.shape[0]):
+        w, x, y, z = q[k, 0], q[k, 1], q[k, 2], q[k, 3]
+        R[k, 0] = 1 - 2 * (y * y + z * z)
+        R[k, 1] = 2 * (x * y - w * z)
+        R[k, 2] = 2 * (x * z + w * y)
+        R[k, 3] = 2 * (x * y + w * z)
+        R[k, 4] = 1 - 2 * (x * x + z * z)
+        R[k, 5] = 2 * (y * z - w * x)
+        R[k, 6] = 2 * (x * z - w * y)
+        R[k, 7] = 2 * (y * z + w * x)
+        R[k, 8] = 1 - 2 * (x * x + y * y)
 
 
 @njit
@@ -530,6 +548,11 @@ class PlatformBatch:
             self._fts_C = None
             self._fts_b = np.zeros((nsim, 6))
         self._fts_R = self._xmat[:, self.ids.fts_site]
+        la, qa = self.ids.legf_adr, self.ids.quat_adr
+        self.leg_force_sensor = self._sensor[:, la:la + 6]
+        """Live (K, 6) leg forces from the sensors (N): the start-of-step evaluation."""
+        self._fts_quat = self._sensor[:, qa:qa + 4]
+        self._R_start = np.zeros((nsim, 9))
         self._L = np.zeros((nsim, 6))
         self._zero6 = np.zeros((nsim, 6))
         self._sp = np.zeros((nsim, 6))
@@ -713,8 +736,14 @@ class PlatformBatch:
         self.poses[:] = poses
         self._advance()
 
-    def _advance(self) -> None:
-        """One interface step from the commanded poses in :attr:`poses` (the hot path)."""
+    def _advance(self, sample: bool = True) -> None:
+        """One interface step from the commanded poses in :attr:`poses` (the hot path).
+
+        ``sample=False`` skips the end-of-step ``mj_forward``: the sensors and actuator forces
+        then still describe the start of the step. Since the servo's set-point is a state
+        (its activation) and the control only its rate, the next step's own evaluation at
+        its start gives exactly this step's end-of-step sample: an open-loop replay reads
+        them one step later instead of paying a second evaluation per step."""
         self._fresh = False
         sp = self._sp
         if leg_setpoints(self.poses, self._b, self._p, self._hh, self._home, self._zero6,
@@ -735,9 +764,10 @@ class PlatformBatch:
             # stopped tests hold their last set-point and are not stepped any more
             self.batch.step(nstep=self._nsub, ids=ids)
         end_ramp(self._cnew, self._cprev, self._act, self._s0, run)
-        # every channel at t_{k+1} from one state, with the step's set-point applied
-        self.batch.forward()
-        self._read_fts()
+        # every channel at t_{k+1} from one state
+        if sample:
+            self.batch.forward()
+            self._read_fts()
         self.k += 1
         self._check_status()
         if measured_over(self._legs_q, self._legs_v, self._legs_f, self._half, self._vmax,
@@ -816,6 +846,14 @@ class PlatformBatch:
         """Achieved interface DOFs ``idx`` into ``z`` and their measured interface wrench
         into ``f`` ((K, len(idx)) each), in one compiled call."""
         read_interface(self.plate_qpos, self._hh, idx, self._fts_R, self._fts_force,
+                       self._fts_torque, self._pre, z, f, self.rest_pose)
+
+    def read_start(self, idx: np.ndarray, z: np.ndarray, f: np.ndarray) -> None:
+        """After ``_advance(sample=False)``: the achieved interface DOFs now, and the
+        interface wrench of the previous step's end-of-step sample (from the sensors, which
+        the step evaluated at its start)."""
+        quat_rows(self._fts_quat, self._R_start)
+        read_interface(self.plate_qpos, self._hh, idx, self._R_start, self._fts_force,
                        self._fts_torque, self._pre, z, f, self.rest_pose)
 
     def interface_force(self, rows: Sequence[int]) -> np.ndarray:
