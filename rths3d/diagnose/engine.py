@@ -513,7 +513,8 @@ class Diagnosis:
         gain: dict[str, float] = {}
         deltas: dict[str, np.ndarray] = {}
         for lab, cand in cands.items():
-            d = self._vec(self._res(outs[lab]), tr)
+            rp = self._res(outs[lab])
+            d = self._vec(rp, tr)
             dvec = rvec - d  # the change the trial makes, in noise units
             ok = np.isfinite(dvec)
             if not ok.all() or not np.any(dvec):
@@ -525,7 +526,7 @@ class Diagnosis:
             cand.share = rd * rd / (rr * dd) if rr > 0 and dd > 0 else 0.0
             for c in self.channels:
                 a = r0[c][tr]
-                b = (r0[c] - self._res(outs[lab])[c])[tr]
+                b = (r0[c] - rp[c])[tr]
                 den = float(np.dot(a, a) * np.dot(b, b))
                 cand.channel_share[c] = float(np.dot(a, b)) ** 2 / den if den > 0 else 0.0
             deltas[lab] = dvec
