@@ -63,6 +63,7 @@ def measure(model, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     home = G.home_leg_lengths()
     slide = [model.jnt_qposadr[model.joint(f"leg{i}_slide").id] for i in range(6)]
     act = [model.actuator(f"leg{i}").id for i in range(6)]
+    aadr = model.actuator_actadr[act]
     free = model.jnt_qposadr[model.joint("plate_free").id]
     for _ in range(int(0.2 / dt)):
         mujoco.mj_step(model, data)
@@ -73,7 +74,8 @@ def measure(model, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         s = inverse_kinematics(G, q) - home
         for j in range(nr + nh):
             a = 0.5 - 0.5 * math.cos(math.pi * min(1.0, (j + 1) / nr))
-            data.ctrl[act] = prev + a * (s - prev)
+            # the servo's set-point is its activation (the control is its rate)
+            data.act[aadr] = prev + a * (s - prev)
             mujoco.mj_step(model, data)
         prev = s
         poses.append(plate_pose(data.qpos[free:free + 7].copy(), G.home_height))

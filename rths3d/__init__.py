@@ -57,7 +57,6 @@ _LAZY: dict[str, str] = {
     # diagnosis
     "Diagnosis": "rths3d.diagnose",
     "load_measurement": "rths3d.diagnose",
-    "synthetic_measurement": "rths3d.diagnose",
     # community benchmark
     "BenchmarkConfig": "rths3d.rthsbench",
     "run_case": "rths3d.rthsbench",

@@ -15,6 +15,7 @@ from typing import Any
 __all__ = [
     "COMPENSATE",
     "COMP_INIT",
+    "EffectConfig",
     "ExcitationConfig",
     "ExperimentConfig",
     "Matrix",
@@ -202,6 +203,35 @@ SafetyConfig = SafetyLimits
 
 
 @dataclass(frozen=True)
+class EffectConfig:
+    """One physical effect of the bench, declared in a scene's ``[[effect]]`` table.
+
+    ``name``: an effect of :mod:`rths3d.effects` (``rths3d effects`` lists them); ``value``:
+    its parameter in the SI unit of the effect; ``leg`` (0–5): the leg a per-leg effect acts
+    on (−1: all legs, where the effect allows it); ``axis``: the axis of an effect that has
+    one (an FTS channel ``fx … tz``, a cross-talk ``fx.fz`` (row.column), an anchor or
+    offset direction ``x``/``y``/``z``). Spec-stage effects edit the bench's MuJoCo model,
+    set-point effects are per-leg signal blocks of the controller, sensor effects act on the
+    measured channels (:class:`rths3d.bench.Bench`).
+    """
+
+    name: str
+    value: float
+    leg: int = -1
+    axis: str = ""
+
+    @property
+    def label(self) -> str:
+        """``name``, ``name.leg<i>``, ``name.<axis>`` or ``name.leg<i>.<axis>``."""
+        out = self.name
+        if self.leg >= 0:
+            out += f".leg{self.leg}"
+        if self.axis:
+            out += f".{self.axis}"
+        return out
+
+
+@dataclass(frozen=True)
 class Scene:
     """A complete vRTHS test description (SI units). See the module docstring."""
 
@@ -216,6 +246,8 @@ class Scene:
     dt: float = 1.0e-3
     duration: float = 10.0
     source: str = ""
+    effects: tuple[EffectConfig, ...] = ()
+    """The bench's physical effects (``[[effect]]`` tables), in the order declared."""
 
     @property
     def n_steps(self) -> int:
@@ -229,6 +261,8 @@ class Scene:
             obj = getattr(self, sec)
             for f in fields(obj):
                 out[f"{sec}.{f.name}"] = getattr(obj, f.name)
+        for e in self.effects:
+            out[f"effect.{e.label}"] = e.value
         return out
 
     def with_transfer(self, kind: str) -> Scene:

@@ -17,6 +17,7 @@ from .numerical import (
     fastest_eigenfrequency,
     interface_delay_margin,
 )
+from .scene import scene_to_dict
 
 __all__ = ["record_meta"]
 
@@ -55,4 +56,6 @@ def record_meta(scene: Scene, num: NumericalSubstructure, k: int,
         "omega_num_max": fastest_eigenfrequency(M, K),
         "omega_dyn_max": coupled_fastest_eigenfrequency(M, K, num.gamma, m_exp, k_exp),
         "transfer_meta": transfer_meta, **margin, "status": "ok", "reason": "",
+        # the whole scene, effects included: the record knows its bench (rths3d diagnose)
+        "scene_def": scene_to_dict(scene),
     }

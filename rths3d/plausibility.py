@@ -26,6 +26,8 @@ TORQUE_LIMIT = 1e4
 """Largest plausible interface torque (N·m)."""
 LEG_FORCE_LIMIT = 1e6
 """Largest plausible actuator (leg) force (N)."""
+LEG_LENGTH_LIMIT = 5.0
+"""Largest plausible leg length of a bench's platform (m); more is usually mm."""
 MAX_DT = 0.05
 """Longest plausible sampling interval of an RTHS record (s); a hybrid test runs its loop at
 hundreds of Hz or more, so an interval of 1 usually means the time is in ms."""
@@ -42,8 +44,12 @@ def limit_of(column: str) -> tuple[float, str] | None:
         return (ROTATION_LIMIT, "rad") if rot else (TRANSLATION_LIMIT, "m")
     if signal in _SIGNALS_N:
         return (TORQUE_LIMIT, "N·m") if rot else (FORCE_LIMIT, "N")
+    if signal == "fts":  # six-axis sensor channels fx fy fz tx ty tz
+        return (TORQUE_LIMIT, "N·m") if part.startswith("t") else (FORCE_LIMIT, "N")
     if signal == "leg_force":
         return LEG_FORCE_LIMIT, "N"
+    if signal == "leg_len":
+        return LEG_LENGTH_LIMIT, "m"
     return None
 
 
@@ -72,5 +78,5 @@ def implausible(record: Record, columns: Iterable[str] | None = None) -> list[st
     return out
 
 
-__all__ = ["FORCE_LIMIT", "LEG_FORCE_LIMIT", "MAX_DT", "ROTATION_LIMIT", "TORQUE_LIMIT",
-           "TRANSLATION_LIMIT", "implausible", "limit_of"]
+__all__ = ["FORCE_LIMIT", "LEG_FORCE_LIMIT", "LEG_LENGTH_LIMIT", "MAX_DT", "ROTATION_LIMIT",
+           "TORQUE_LIMIT", "TRANSLATION_LIMIT", "implausible", "limit_of"]

@@ -25,6 +25,7 @@ from .compensation import COMPENSATORS, compensator_names, config_from_dict
 from .config import (
     COMP_INIT,
     COMPENSATE,
+    EffectConfig,
     ExcitationConfig,
     ExperimentConfig,
     Matrix,
@@ -44,6 +45,7 @@ from .transfer import transfer_class, transfer_kinds
 from .transfer.commands import compensator_params
 
 __all__ = [
+    "EffectConfig",
     "ExcitationConfig",
     "ExperimentConfig",
     "NumericalConfig",
@@ -55,6 +57,7 @@ __all__ = [
     "load_scene",
     "scene_from_dict",
     "scene_to_dict",
+    "scene_to_toml",
     "scene_with",
     "transfer_kinds",
 ]
@@ -211,7 +214,7 @@ def _build(cls: type, name: str, sec: Mapping[str, Any], checks: Mapping[str, di
 def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str = "") -> Scene:
     """Validate a raw (TOML-shaped) mapping and build a :class:`Scene`."""
     top = {"name", "dofs", "dt", "duration", "numerical", "experiment", "excitation",
-           "transfer", "sensor", "safety"}
+           "transfer", "sensor", "safety", "effect"}
     for key in raw:
         if key not in top:
             raise ConfigError(key, raw[key], f"unknown field (known: {', '.join(sorted(top))})")
@@ -327,8 +330,82 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
     sname = raw.get("name", name)
     if not isinstance(sname, str):
         raise ConfigError("name", sname, "must be a string")
+    effects = _effects(raw.get("effect", []))
     return Scene(name=sname, dofs=dofs, numerical=num, experiment=exp, excitation=exc,
-                 transfer=tr, sensor=sen, safety=saf, dt=dt, duration=duration, source=source)
+                 transfer=tr, sensor=sen, safety=saf, dt=dt, duration=duration, source=source,
+                 effects=effects)
+
+
+EFFECT_KEYS = ("name", "value", "leg", "axis")
+
+
+def _effects(raw: Any) -> tuple[EffectConfig, ...]:
+    """The ``[[effect]]`` tables: name, value (SI unit of the effect), leg, axis."""
+    from .effects import get_effect
+
+    if isinstance(raw, Mapping):
+        raw = [raw]
+    if not isinstance(raw, list | tuple):
+        raise ConfigError("effect", raw, "must be a list of [[effect]] tables")
+    out: list[EffectConfig] = []
+    seen: set[str] = set()
+    for i, tab in enumerate(raw):
+        where = f"effect[{i}]"
+        if not isinstance(tab, Mapping):
+            raise ConfigError(where, tab, "must be a table with name and value")
+        for key in tab:
+            if key not in EFFECT_KEYS:
+                raise ConfigError(f"{where}.{key}", tab[key],
+                                  f"unknown field (known: {', '.join(EFFECT_KEYS)})")
+        name = tab.get("name")
+        if not isinstance(name, str):
+            raise ConfigError(f"{where}.name", name, "required: the effect's name (rths3d "
+                              "effects lists them)")
+        eff = get_effect(name)
+        if "value" not in tab:
+            raise ConfigError(f"{where}.value", None, f"required: {eff.param.name} in "
+                              f"{eff.param.unit}")
+        value = eff.param.check(tab["value"], f"{where}.{name}")
+        leg = tab.get("leg", -1)
+        if isinstance(leg, bool) or not isinstance(leg, int):
+            raise ConfigError(f"{where}.leg", leg, "must be an integer 0…5 (or -1: all legs)")
+        if eff.per_leg and leg == -1 and not eff.all_legs:
+            raise ConfigError(f"{where}.leg", None, f"required: {name} acts on one leg (0…5)")
+        axis = tab.get("axis", "")
+        if not isinstance(axis, str):
+            raise ConfigError(f"{where}.axis", axis, "must be a string")
+        try:
+            eff.check_target(leg, axis)
+        except ConfigError as exc:
+            raise ConfigError(f"{where}.{exc.field.split('.')[-1]}", exc.value,
+                              exc.limit) from None
+        e = EffectConfig(name, value, leg, axis)
+        if e.label in seen:
+            raise ConfigError(f"{where}", e.label, "declared twice (one [[effect]] per "
+                              "effect, leg and axis)")
+        seen.add(e.label)
+        out.append(e)
+    return tuple(out)
+
+
+def _set_effect(raw: dict[str, Any], label: str, value: Any) -> None:
+    """Set (or add) the ``[[effect]]`` entry of ``label`` (``name[.leg<i>][.<axis>]``)."""
+    from .effects import parse_label
+
+    name, leg, axis = parse_label(label)
+    tables = [dict(t) for t in raw.get("effect", [])]
+    for t in tables:
+        if t.get("name") == name and t.get("leg", -1) == leg and t.get("axis", "") == axis:
+            t["value"] = value
+            break
+    else:
+        t = {"name": name, "value": value}
+        if leg >= 0:
+            t["leg"] = leg
+        if axis:
+            t["axis"] = axis
+        tables.append(t)
+    raw["effect"] = tables
 
 
 def _check_coupled_stability(num: NumericalConfig, exp: ExperimentConfig,
@@ -393,6 +470,9 @@ def apply_overrides(raw: dict[str, Any], overrides: Sequence[str] | Mapping[str,
                 raise ConfigError("--set", text, "must look like key=value, e.g. numerical.k=5000")
             items.append((key.strip(), _parse_value(val.strip())))
     for key, val in items:
+        if key.startswith("effect."):
+            _set_effect(out, key[len("effect."):], val)
+            continue
         parts = key.split(".")
         node = out
         for i, p in enumerate(parts[:-1]):
@@ -467,6 +547,7 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
         out[sec] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in d.items()
                     if not (isinstance(v, float) and math.isnan(v))}
     tr = out["transfer"]
+
     def raw(v: Any) -> Any:
         return list(v) if isinstance(v, tuple) else v
 
@@ -474,6 +555,16 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
                          for k, v in scene.transfer.compensator}
     if not tr["compensator"]:
         del tr["compensator"]
+    if scene.effects:
+        tabs = []
+        for e in scene.effects:
+            t: dict[str, Any] = {"name": e.name, "value": e.value}
+            if e.leg >= 0:
+                t["leg"] = e.leg
+            if e.axis:
+                t["axis"] = e.axis
+            tabs.append(t)
+        out["effect"] = tabs
     return out
 
 
@@ -498,3 +589,35 @@ def scene_with(scene: Scene, overrides: Mapping[str, Any] | Sequence[str],
             nm.pop(leaf.upper())
     raw = apply_overrides(raw, overrides)
     return scene_from_dict(raw, name=scene.name, source=scene.source)
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(f"no TOML form for {type(v).__name__}")
+
+
+def scene_to_toml(scene: Scene) -> str:
+    """The scene as TOML text that :func:`load_scene` reads back to the same scene (its
+    ``[[effect]]`` tables included)."""
+    d = scene_to_dict(scene)
+    lines = [f"# rths3d scene {scene.name!r}"]
+    for key in ("name", "dofs", "dt", "duration"):
+        lines.append(f"{key} = {_toml_value(d[key])}")
+    for sec in ("numerical", "excitation", "experiment", "transfer", "sensor", "safety"):
+        lines += ["", f"[{sec}]"]
+        lines += [f"{k} = {_toml_value(v)}" for k, v in d[sec].items()]
+    for tab in d.get("effect", []):
+        lines += ["", "[[effect]]"]
+        lines += [f"{k} = {_toml_value(v)}" for k, v in tab.items()]
+    return "\n".join(lines) + "\n"

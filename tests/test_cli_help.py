@@ -25,7 +25,7 @@ def _words(text: str) -> str:
 @pytest.mark.parametrize("argv, words", [
     (["sweep"], ["write OUT/<name>.parquet."]),
     (["train"], ["Target column (target.<name>)."]),
-    (["diagnose"], ["a TOML file with a [bench] table."]),
+    (["diagnose"], ["EFFECT[.leg<i>][.<axis>] (fitted)"]),
     (["benchmark", "rths"], ["(and <name>_trials.png"]),
 ])
 def test_help_keeps_bracketed_words(argv, words, capsys, monkeypatch):

@@ -265,7 +265,8 @@ def test_growth_stop_same_in_kernel_and_batch():
     growth rule in the single-test kernel and in the batched path; a stable one goes on."""
     sc = load_scene(SCENES / "paper_contact.toml",
                     ["duration=4.0", "experiment.h0=0.01", "excitation.frequency=1.0",
-                     "excitation.overtravel=0.003", "numerical.k=250", "numerical.m=4.81"])
+                     "excitation.overtravel=0.003", "numerical.k=250", "numerical.m=4.81",
+                     "safety.velocity=2.0", "safety.growth_window=0.25"])
     one = run(sc, "lti", reference=False)
     two = run_batch(sc, [{}, {"numerical.k": 1e4, "numerical.m": 9.62}], "lti",
                     reference=False)
@@ -372,15 +373,20 @@ def test_stewart_tests_with_different_servos_and_parts_step_together():
 
 
 def test_stewart_delay_and_part_kind_split_groups():
-    """Actuator delay and the part kind change the model's structure: separate groups."""
+    """The part kind and which set-point effects act change the bench's structure: separate
+    groups; the actuator delay and lag are per-test set-point blocks: one group."""
     from rths3d.loop import batch_key as _group_key
     from rths3d.scene import scene_with
 
     sc = load_scene(SCENES / "paper_contact.toml").with_transfer("stewart")
     a = _group_key(scene_with(sc, {"transfer.delay": 0.001}))
-    assert a != _group_key(scene_with(sc, {"transfer.delay": 0.002}))
+    assert a == _group_key(scene_with(sc, {"transfer.delay": 0.002}))
+    assert a == _group_key(scene_with(sc, {"transfer.delay": 0.001, "transfer.timeconst": 0.0}))
     assert a != _group_key(scene_with(sc, {"transfer.delay": 0.001, "experiment.kind": "linear"}))
-    assert a != _group_key(scene_with(sc, {"transfer.delay": 0.001, "transfer.timeconst": 0.0}))
+    assert a != _group_key(scene_with(sc, {"transfer.delay": 0.001,
+                                           "effect.backlash.leg2": 1e-5}))
+    assert a == _group_key(scene_with(sc, {"transfer.delay": 0.001,
+                                           "effect.coulomb_friction.leg2": 10.0}))
 
 
 def test_lti_tests_with_different_actuators_step_together():

@@ -81,6 +81,7 @@ def _drive(model, targets, loads=None, body=None, ramp=0.2, hold=0.15):
     home = G.home_leg_lengths()
     slide = [model.jnt_qposadr[model.joint(f"leg{i}_slide").id] for i in range(6)]
     act = [model.actuator(f"leg{i}").id for i in range(6)]
+    aadr = model.actuator_actadr[act]
     free = model.jnt_qposadr[model.joint("plate_free").id]
     fa = model.sensor_adr[model.sensor("fts_force").id]
     ta = model.sensor_adr[model.sensor("fts_torque").id]
@@ -97,7 +98,8 @@ def _drive(model, targets, loads=None, body=None, ramp=0.2, hold=0.15):
         w = np.zeros(6) if loads is None else np.asarray(loads[k], float)
         for j in range(nr + nh):
             a = 0.5 - 0.5 * math.cos(math.pi * min(1.0, (j + 1) / nr))
-            data.ctrl[act] = prev_s + a * (s - prev_s)
+            # the servo's set-point is its activation (the control is its rate)
+            data.act[aadr] = prev_s + a * (s - prev_s)
             if bid is not None:
                 data.xfrc_applied[bid] = prev_w + a * (w - prev_w)
             mujoco.mj_step(model, data)

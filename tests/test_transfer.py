@@ -174,7 +174,10 @@ def test_lti_default_model_follows_the_leg_servo_settings(timeconst, velocity_ff
          for kind in ("lti", "stewart")}
     # the settings move the delay by −3.5 … +12.8 ms from the identified 2.5 ms
     assert m["lti"]["fei_d"] == pytest.approx(m["stewart"]["fei_d"], abs=0.1e-3)
-    assert m["lti"]["e_rel_track"] == pytest.approx(m["stewart"]["e_rel_track"], rel=0.1)
+    # without the lag the tracking error is 0.1–0.2 % and the identified second-order model
+    # leaves part of it out (the platform's set-point ramp and servo): 0.1 % absolute
+    assert m["lti"]["e_rel_track"] == pytest.approx(m["stewart"]["e_rel_track"], rel=0.1,
+                                                    abs=1e-3)
 
 
 def test_predicted_delay_of_a_model_with_feedthrough():

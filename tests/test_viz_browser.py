@@ -34,3 +34,28 @@ def test_browser_shows_platform_and_ssp_panel(browser_ready, tmp_path):
     assert check.connected and check.webgl
     assert check.ssp_panel
     assert check.canvas_std > 10.0 and check.canvas_colours > 50
+
+
+def test_browser_shows_a_diagnosis_replay_leg_by_leg(browser_ready, tmp_path):
+    """A diagnosis replay (report's replay.parquet: measurement, model and residual columns
+    in six DOF) opens side by side: the platform and its model twin, the leg-force panel
+    (measured and model) and the residual per leg."""
+    import numpy as np
+
+    from rths3d.diagnose import Diagnosis, measure
+    from rths3d.diagnose.report import replay_record
+    from rths3d.scene import load_scene
+
+    rec = measure(load_scene("bench6", ["duration=1.2"]), {"coulomb_friction.leg2": 30.0},
+                  seed=2)
+    diag = Diagnosis(rec, candidates=["coulomb_friction.leg2"])
+    rep = replay_record(diag)
+    assert {f"model.leg_force.{i}" for i in range(6)} <= set(rep.columns)
+    assert np.max(np.abs(rep.columns["residual.leg_force.2"])) > 10  # friction unmodelled
+    with Viewer(buffer_from_record(rep), port=0, exaggeration=20.0) as v:
+        shot = tmp_path / "legs.png"
+        check = screenshot(v.url, shot, settle=4.0,
+                           expect=("leg forces of the chosen leg: measured and model (N)",
+                                   "residual per leg (leg force, noise units)"))
+        assert v.updates > 0
+    assert check.connected and all(check.texts.values()), check.texts

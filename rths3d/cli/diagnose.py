@@ -7,39 +7,51 @@ from pathlib import Path
 import typer
 
 from ._app import app, json_line
-from ._output import Keeper
+from ._output import Keeper, write_text
 
 
 @app.command()
 def diagnose(
     measurement: Path = typer.Argument(..., help="Measurement record (.parquet or .csv)."),
-    scene: str | None = typer.Option(None, "--scene",
-                                     help="Bench model: 'bench' (1-D heave bench), 'stewart' "
-                                          "(six-leg platform) — parameters from the record "
-                                          "metadata or the defaults — or a TOML file with a "
-                                          "[bench] table. Default: as the record's metadata "
-                                          "says, else 'bench'."),
+    scene: str | None = typer.Option(
+        None, "--scene",
+        help="The bench to compare with: a scene TOML file or the name of a shipped scene of "
+             "any experiment kind (paper_contact, paper_linear, multidof). Default: the bench "
+             "in the record's metadata (scene, part, leg servos, effects); a fallback to a "
+             "default is a warning naming it. Replayed through the Stewart platform."),
     add: list[str] = typer.Option([], "--add",
-                                  help="EFFECT (fitted) or EFFECT=value (held at value, SI "
-                                       "unit); repeatable."),
+                                  help="`EFFECT[.leg<i>][.<axis>]` (fitted) or `...=value` (held "
+                                       "at value, SI unit), or kinematic_calibration / "
+                                       "fts_calibration; repeatable."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object."),
     report: Path | None = typer.Option(None, "--report",
                                        help="Write report.md, plots and replay.parquet here."),
     auto: bool = typer.Option(False, "--auto",
                               help="Accept the proposal round by round until only noise "
                                    "remains."),
-    top_k: int = typer.Option(5, "--top-k", min=1, help="Candidates refitted per round."),
+    refit: int = typer.Option(8, "--refit", min=1, help="Candidates refitted per round."),
+    save_scene: Path | None = typer.Option(
+        None, "--save-scene",
+        help="Write the bench with the accepted effects as a scene TOML ([[effect]] tables); "
+             "`rths3d run` it to reproduce the measured test."),
+    hybrid: bool = typer.Option(False, "--hybrid",
+                                help="Run the uncalibrated and the calibrated scene closed "
+                                     "loop and add their e_rel,track and FEI delay to the "
+                                     "report's waterfall (with --report or --json)."),
 ) -> None:
-    """Compare a measurement with the bench model, rank the missing physical effects."""
+    """Compare a measurement with its bench model, rank the missing physical effects (each
+    effect on each leg and axis, kinematic and FTS calibration), and say where the model
+    fails."""
     import math
 
     from ..diagnose import Diagnosis, load_measurement
-    from ..diagnose.bench import resolve_scene
+    from ..diagnose.bench import resolve_bench
+    from ..diagnose.engine import MULTI
     from ..effects import parse_effect_arg
     from ..errors import ConfigError
     from ..figures import check_output
 
-    adds = [parse_effect_arg(a) for a in add]
+    adds = [(a.strip(), None) if a.strip() in MULTI else parse_effect_arg(a) for a in add]
     names = [name for name, _ in adds]
     for a, name in zip(add, names, strict=True):
         if names.count(name) > 1:
@@ -47,32 +59,53 @@ def diagnose(
     if report is not None:
         check_output(report, "--report", folder=True)
     keeper = Keeper()
+    if save_scene is not None:
+        if save_scene.suffix.lower() != ".toml":
+            raise ConfigError("--save-scene", str(save_scene), "must end in .toml")
+        check_output(save_scene, "--save-scene")
     rec, channels, warns = load_measurement(measurement)
-    bench, kind = resolve_scene(scene, rec.meta)
-    diag = Diagnosis(rec, bench, model=kind, top_k=top_k)
+    sc, bench_warns = resolve_bench(scene, rec.meta)
+    warns = [*warns, *bench_warns]
+    diag = Diagnosis(rec, sc, refit=refit)
+    warns += diag.warnings
     for name, value in adds:
         diag.add(name, value, fix=value is not None)
     rounds = diag.auto() if auto else [diag.run()]
     result = rounds[-1]
+    hyb = None
+    if hybrid:
+        from ..diagnose.report import hybrid_figures
+
+        hyb = hybrid_figures(diag)
     report_path = None
     if report is not None:
         from ..diagnose.report import write_report
 
         report_path = keeper.write(
-            lambda d: write_report(diag, result, d, warns, first_round=rounds[0]), report,
-            "--report", folder=True)
+            lambda d: write_report(diag, result, d, warns, first_round=rounds[0], hybrid=hyb),
+            report, "--report", folder=True)
+    saved = None
+    if save_scene is not None:
+        from ..scene import scene_to_toml
+
+        text = scene_to_toml(diag.calibrated_scene())
+
+        def save(p: Path) -> Path:
+            p.parent.mkdir(parents=True, exist_ok=True)
+            return write_text(p, text)
+
+        saved = str(keeper.write(save, save_scene, "--save-scene"))
     if json_out:
         payload = result.as_dict()
         payload["waterfall"] = diag.waterfall
         payload["rounds"] = [r.proposal.effect if r.proposal else None for r in rounds]
         payload["warnings"] = warns
         payload["report"] = str(report_path) if report_path else None
+        payload["scene"] = saved
+        payload["hybrid"] = hyb
         payload["ignored_channels"] = list(diag.ignored)
-        from ..diagnose.report import localisation
-
-        loc = localisation(diag)
-        payload["localisation"] = {"fei": loc["fei"], "contact": loc["contact"]}
-
+        payload["bench"] = {"scene": sc.name, "part": sc.experiment.kind,
+                            "effects": [e.label for e in sc.effects]}
         typer.echo(json_line(payload))
         keeper.finish()
         return
@@ -82,34 +115,57 @@ def diagnose(
     con = Console()
     for w in warns:
         con.print(f"[yellow]warning:[/] {w}")
-    con.print(f"channels: {', '.join(channels)}; error (noise units) training "
-              f"{result.error_train:.3f}, validation {result.error_val:.3f}")
-    tab = Table(title="candidate effects (ranked by held-out ΔBIC)")
-    for col in ("rank", "effect", "value", "ΔBIC", "val. error", "significant"):
+    con.print(f"bench: scene {sc.name!r} ({sc.experiment.kind}); {len(diag.channels)} "
+              f"channels; error (noise units) training {result.error_train:.3f}, validation "
+              f"{result.error_val:.3f}")
+    tab = Table(title="candidate effects (ranked by held-out ΔIC; top 15)")
+    for col in ("rank", "effect", "value", "ΔIC", "val. error", "significant"):
         tab.add_column(col)
-    for i, c in enumerate(result.candidates, 1):
-        tab.add_row(str(i), c.effect,
-                    f"{c.value:.4g} {c.unit}" if c.fitted and math.isfinite(c.value) else "–",
-                    f"{c.score:.1f}" if c.fitted else "–",
-                    f"{c.error_before:.3f} → {c.error_after:.3f}" if c.fitted else "–",
+    for i, c in enumerate(result.candidates[:15], 1):
+        val = f"{c.value:.4g} {c.unit}" if math.isfinite(c.value) else \
+            (f"{len(c.values)} parameters" if c.values else "–")
+        tab.add_row(str(i), c.effect, val,
+                    f"{c.score:.1f}" if math.isfinite(c.score) else "–",
+                    f"{c.error_before:.3f} → {c.error_after:.3f}"
+                    if math.isfinite(c.error_after) else "–",
                     "yes" if c.significant else "no")
     con.print(tab)
     for a, b, cos in result.confounded:
         con.print(f"confounded: {a} ↔ {b} (cos {cos:.3f})")
-    if result.noise_only:
+    st = result.status
+    if st == "noise_only":
         con.print("[green]only noise remains[/]: no effect proposed")
-    elif result.proposal is None:
+    elif st == "unexplained":
         con.print(f"[red]unexplained residual[/]: {result.error_val:.3g} noise units remain "
-                  "that no library effect explains; check the scene or add an effect")
+                  "that no library effect explains; check the bench or add an effect")
     else:
         p = result.proposal
-        con.print(f"proposal: add [bold]{p.effect}[/] ({p.param} = {p.value:.4g} {p.unit}); "
-                  f"rerun with --add {p.effect}")
+        if p is not None:
+            what = f"{p.param} = {p.value:.4g} {p.unit}" if math.isfinite(p.value) else \
+                f"{len(p.values)} parameters"
+            verb = "proposal: add" if st == "effect_proposed" else "partly explained by"
+            con.print(f"{verb} [bold]{p.effect}[/] ({what}); rerun with --add {p.effect}")
+        else:
+            con.print("[yellow]partly explained[/]: structure remains after the accepted "
+                      "effects")
+    if result.remaining:
+        r = result.remaining
+        con.print("residual remains in " + ", ".join(
+            f"{c} ({v:.3g} σ)" for c, v in r.get("channels", {}).items()) +
+            (f"; band {r['band_hz'][0]:.3g}–{r['band_hz'][1]:.3g} Hz" if "band_hz" in r
+             else "") + "; correlated with " + ", ".join(
+            f"{k} ({v:+.2f})" for k, v in r.get("state_correlation", {}).items()))
     for w in diag.waterfall:
         con.print(f"  {w['step']}: training {w['error_train']:.3f}, validation "
                   f"{w['error_val']:.3f}")
+    if hyb:
+        for n in ("measured", "uncalibrated", "calibrated"):
+            con.print(f"  hybrid test, {n}: e_rel,track {100 * hyb[n]['e_rel_track']:.4f} %, "
+                      f"FEI delay {1e3 * hyb[n]['fei_d']:.4f} ms")
     if report_path:
         con.print(f"report: {report_path}")
+    if saved:
+        con.print(f"calibrated scene: {saved} (rths3d run {saved})")
     keeper.finish()
 
 
@@ -128,9 +184,9 @@ def effects(json_out: bool = typer.Option(False, "--json", help="Print JSON.")) 
     from rich.table import Table
 
     tab = Table(title="physical effects")
-    for col in ("effect", "stage", "parameter", "off", "bounds", "signature"):
+    for col in ("effect", "stage", "parameter", "off", "bounds", "target", "signature"):
         tab.add_column(col)
     for r in rows:
         tab.add_row(r["effect"], r["stage"], f"{r['param']} [{r['unit']}]", f"{r['off']:g}",
-                    f"[{r['lo']:g}, {r['hi']:g}]", r["signature"])
+                    f"[{r['lo']:g}, {r['hi']:g}]", r["target"], r["signature"])
     Console().print(tab)

@@ -124,3 +124,56 @@ def _corr(a: np.ndarray, b: np.ndarray) -> float:
     b = b - b.mean()
     den = math.sqrt(float(np.dot(a, a)) * float(np.dot(b, b)))
     return float(np.dot(a, b) / den) if den > 0 else 0.0
+
+
+def remaining_structure(res: dict[str, np.ndarray], diag, channels, top: int = 3
+                        ) -> dict[str, object]:
+    """Where a residual (noise units per channel) that is not noise sits: the channels with
+    the largest RMS, the 0.25 s windows with the largest RMS (s), the frequency band where
+    its spectrum rises most above the flat noise floor (Hz), its whiteness (n_eff/n) and its
+    correlation with the states (commanded velocity and acceleration of the interface DOFs,
+    the measured displacement and force)."""
+    dt = diag.dt
+    rows = slice(1, None)
+    rms = {c: float(np.sqrt(np.mean(res[c][rows] ** 2))) for c in channels}
+    worst = sorted(rms, key=lambda c: -rms[c])[:top]
+    out: dict[str, object] = {"channels": {c: rms[c] for c in worst}}
+    c0 = worst[0]
+    r = np.nan_to_num(res[c0][rows])
+    tw, wr = window_rms(r, dt, 0.25)
+    idx = np.argsort(-wr)[:top]
+    out["windows_s"] = [[float(tw[i] - 0.125 + dt), float(tw[i] + 0.125 + dt), float(wr[i])]
+                        for i in sorted(idx)]
+    f, p = residual_spectrum(r, dt)
+    floor = float(np.median(p[1:])) if p.size > 2 else 0.0
+    if floor > 0 and p.size > 4:
+        excess = p / floor
+        k = int(np.argmax(excess[1:])) + 1
+        hi = k
+        while hi + 1 < p.size and excess[hi + 1] > 3.0:
+            hi += 1
+        lo = k
+        while lo - 1 > 0 and excess[lo - 1] > 3.0:
+            lo -= 1
+        out["band_hz"] = [float(f[lo]), float(f[hi]), float(excess[k])]
+    out["whiteness"] = float(effective_samples(r) / max(r.size, 1))
+    states: dict[str, np.ndarray] = {}
+    for d in diag.scene.dofs:
+        j = DOFS_INDEX[d]
+        z = diag.replay.poses[:, j]
+        v = np.gradient(z, dt)
+        states[f"velocity.{d}"] = v
+        states[f"acceleration.{d}"] = np.gradient(v, dt)
+        if f"z_meas.{d}" in diag.measured:
+            states[f"displacement.{d}"] = diag.measured[f"z_meas.{d}"]
+        if f"f_meas.{d}" in diag.measured:
+            states[f"force.{d}"] = diag.measured[f"f_meas.{d}"]
+    corr = {name: _corr(r, x[rows]) for name, x in states.items() if np.any(x)}
+    corr.update({f"sign velocity.{n[9:]}": _corr(r, np.sign(x[rows]))
+                 for n, x in states.items() if n.startswith("velocity.") and np.any(x)})
+    best = sorted(corr, key=lambda k: -abs(corr[k]))[:top]
+    out["state_correlation"] = {k: corr[k] for k in best}
+    return out
+
+
+DOFS_INDEX = {d: i for i, d in enumerate(("x", "y", "z", "rx", "ry", "rz"))}

@@ -29,51 +29,71 @@ from ..record import DOFS, Record
 from .engine import Diagnosis, RoundResult
 from .localise import condition_table, fei, residual_spectrum, transfer_estimate, window_rms
 
-UNITS = {"z_meas.z": "m", "f_meas.z": "N", "f_meas.x": "N",
-         **{f"leg_force.{i}": "N" for i in range(6)}}
+
+def _unit(c: str) -> str:
+    sig, _, lab = c.partition(".")
+    if sig in ("z_meas", "pose_meas"):
+        return "rad" if lab.startswith("r") else "m"
+    if sig == "leg_len":
+        return "m"
+    if sig == "leg_force":
+        return "N"
+    if sig == "fts":
+        return "N·m" if lab.startswith("t") else "N"
+    if sig == "f_meas":
+        return "N·m" if lab.startswith("r") else "N"
+    return ""
+
 
 
 def replay_record(diag: Diagnosis) -> Record:
     """The measurement with the model replay (accepted effects) as ``model.<column>``
-    columns, ``model.contact`` (N) and ``model.pose_meas.<dof>`` (m, rad), for side-by-side
-    viewing."""
+    columns for every compared channel and the model's plate pose ``model.pose_meas.<dof>``
+    (m, rad), for side-by-side viewing (``rths3d view``)."""
     out = diag.predict()
     cols = dict(diag.record.columns)
+    names = list(diag.channels)
+    for d in DOFS:
+        if f"pose_meas.{d}" not in names:
+            names.append(f"pose_meas.{d}")
+    for c in names:
+        cols[f"model.{c}"] = np.asarray(out[c], dtype=float)
+    res = diag.residuals()
     for c in diag.channels:
-        cols[f"model.{c}"] = out[c]
-    cols["model.contact"] = out["contact"]
-    # the model's plate pose, for the viewer's plate twin (heave replay: other DOFs zero)
-    for dof in DOFS:
-        cols[f"model.pose_meas.{dof}"] = out["z_meas.z"] if dof == "z" else \
-            np.zeros(diag.record.n)
+        cols[f"residual.{c}"] = res[c]
     meta = dict(diag.record.meta)
-    meta["diagnosis"] = {"accepted": dict(diag.accepted), "model_columns":
-                         [f"model.{c}" for c in diag.channels] + ["model.contact"]
-                         + [f"model.pose_meas.{d}" for d in DOFS]}
+    meta["diagnosis"] = {"accepted": dict(diag.accepted), "channels": list(diag.channels),
+                         "model_columns": [f"model.{c}" for c in names],
+                         "residual_columns": [f"residual.{c}" for c in diag.channels],
+                         "noise_sigma": dict(diag.sigma)}
     return Record(diag.record.t, cols, meta)
 
 
+def _worst(diag: Diagnosis, n: int = 6) -> list[str]:
+    res = diag.residuals()
+    rms = {c: float(np.sqrt(np.nanmean(res[c][1:] ** 2))) for c in diag.channels}
+    return sorted(rms, key=lambda c: -rms[c])[:n]
+
+
 def localisation(diag: Diagnosis) -> dict[str, Any]:
-    """Residual localisation of the current model: FEI per channel, error in and out of
-    contact, and the operating-condition table (noise units)."""
+    """Residual localisation of the current model: FEI of measurement against model per
+    channel and the operating-condition table of the worst channels (noise units)."""
     out = diag.predict()
     res = diag.residuals()
     dt = diag.dt
-    v = np.gradient(diag.command, dt)
+    d0 = diag.scene.dofs[0]
+    cmd = diag.replay.poses[:, DOFS.index(d0)]
+    v = np.gradient(cmd, dt)
     a = np.gradient(v, dt)
-    force = diag.measured.get("f_meas.z", out["f_meas.z"])
-    contact = out["contact"] > 0
-    info: dict[str, Any] = {"fei": {}, "contact": {}, "conditions": {}}
+    fname = f"f_meas.{d0}"
+    force = diag.measured.get(fname, out.get(fname, np.zeros_like(cmd)))
+    info: dict[str, Any] = {"fei": {}, "conditions": {}}
     for c in diag.channels:
-        if np.any(out[c]):
-            info["fei"][c] = fei(out[c], diag.measured[c], dt)
-        r = res[c]
-        info["contact"][c] = {
-            "in_contact": float(np.sqrt(np.mean(r[contact] ** 2))) if contact.any() else None,
-            "free": float(np.sqrt(np.mean(r[~contact] ** 2))) if (~contact).any() else None,
-            "contact_share": float(contact.mean())}
+        if np.any(out[c][1:] - np.mean(out[c][1:])):
+            info["fei"][c] = fei(out[c][1:], diag.measured[c][1:], dt)
+    for c in _worst(diag):
         info["conditions"][c] = condition_table(
-            r, {"velocity (m/s)": v, "acceleration (m/s²)": a, "force (N)": force})
+            res[c], {"velocity (m/s)": v, "acceleration (m/s²)": a, "force (N)": force})
     return info
 
 
@@ -82,24 +102,20 @@ def _plot_localisation(diag: Diagnosis, path: Path) -> None:
     res = diag.residuals()
     t = diag.record.t
     dt = diag.dt
-    contact = out["contact"] > 0
-    chans = diag.channels
+    chans = _worst(diag)
     fig = new_figure((15, 2.8 * len(chans)))
     axes = fig.subplots(len(chans), 3, squeeze=False)
     for i, c in enumerate(chans):
         ax = axes[i, 0]
         ax.plot(t, diag.measured[c], lw=0.8, label="measured")
         ax.plot(t, out[c], lw=0.8, ls="--", label="model")
-        ax.set_ylabel(f"{c} ({UNITS.get(c, '')})")
+        ax.set_ylabel(f"{c} ({_unit(c)})")
         ax.legend(loc="upper right", fontsize=7)
         ax = axes[i, 1]
         ax.plot(t, res[c], lw=0.5, color="0.5", label="residual / σ")
         tw, rms = window_rms(res[c], dt, 0.25)
         ax.plot(tw + t[0], rms, color="C3", lw=1.5, label="window RMS")
         ax.axhline(1.0, color="k", lw=0.6, ls=":")
-        if contact.any():
-            ax.fill_between(t, 0, 1, where=contact, transform=ax.get_xaxis_transform(),
-                            color="C1", alpha=0.15, label="contact")
         ax.set_ylabel("noise units")
         ax.legend(loc="upper right", fontsize=7)
         ax = axes[i, 2]
@@ -117,12 +133,12 @@ def _plot_localisation(diag: Diagnosis, path: Path) -> None:
     for ax in axes[-1]:
         ax.set_xlabel("t (s)")
     axes[-1, 2].set_xlabel("f (Hz)")
-    save_figure(fig, path, title="Where the model fails: time, contact phases, frequency",
+    save_figure(fig, path, title="Where the model fails: time, frequency (worst channels)",
                 dpi=90, rect=(0, 0, 1, 0.97))
 
 
 def _plot_signatures(result: RoundResult, channels: tuple[str, ...], path: Path) -> None:
-    cands = result.candidates
+    cands = [c for c in result.candidates if math.isfinite(c.score)][:30]
     mat = np.array([[c.channel_share.get(ch, 0.0) for ch in channels] for c in cands])
     fig = new_figure((12, 0.35 * len(cands) + 1.5))
     ax, ax2 = fig.subplots(1, 2, gridspec_kw={"width_ratios": [2, 1]})
@@ -138,15 +154,32 @@ def _plot_signatures(result: RoundResult, channels: tuple[str, ...], path: Path)
     ax2.invert_yaxis()
     ax.set_ylim(len(cands) - 0.5, -0.5)
     ax2.set_xscale("symlog")
-    ax2.set_title("held-out ΔBIC (green: significant)")
+    ax2.set_title("held-out ΔIC (green: significant)")
     save_figure(fig, path, dpi=90)
 
 
-def _plot_waterfall(waterfall: list[dict[str, Any]], path: Path) -> None:
+def _plot_waterfall(waterfall: list[dict[str, Any]], path: Path,
+                    hybrid: dict[str, Any] | None = None) -> None:
     labels = [w["step"] for w in waterfall]
     x = np.arange(len(labels))
-    fig = new_figure((max(6, 2.2 * len(labels)), 4))
-    ax = fig.subplots()
+    fig = new_figure((max(6, 2.2 * len(labels)) + (5 if hybrid else 0), 4))
+    if hybrid:
+        ax, axh = fig.subplots(1, 2, gridspec_kw={"width_ratios": [max(2, len(labels)), 2]})
+        names = ["measured", "uncalibrated", "calibrated"]
+        e = [hybrid[n]["e_rel_track"] * 100 for n in names]
+        d = [hybrid[n]["fei_d"] * 1e3 for n in names]
+        xh = np.arange(3)
+        axh.bar(xh - 0.2, e, 0.4, color="C0", label="e_rel,track (%)")
+        axh2 = axh.twinx()
+        axh2.bar(xh + 0.2, d, 0.4, color="C3", label="FEI delay (ms)")
+        axh.set_xticks(xh, names, fontsize=8)
+        axh.set_ylabel("e_rel,track (%)")
+        axh2.set_ylabel("FEI delay (ms)")
+        axh.set_title("hybrid test: run of each scene")
+        axh.legend(loc="upper left", fontsize=7)
+        axh2.legend(loc="upper right", fontsize=7)
+    else:
+        ax = fig.subplots()
     ax.bar(x - 0.2, [w["error_train"] for w in waterfall], 0.4, label="training")
     ax.bar(x + 0.2, [w["error_val"] for w in waterfall], 0.4, label="validation")
     ax.axhline(1.0, color="k", ls=":", lw=1, label="noise floor")
@@ -157,63 +190,110 @@ def _plot_waterfall(waterfall: list[dict[str, Any]], path: Path) -> None:
     save_figure(fig, path, dpi=90)
 
 
+def hybrid_figures(diag: Diagnosis) -> dict[str, Any]:
+    """The hybrid test's tracking error e_rel,track (eq. (1)) and FEI delay (s) of the
+    measured record, of ``rths3d run`` of the uncalibrated bench scene and of the calibrated
+    one (the accepted effects added): the waterfall's last column."""
+    import dataclasses
+
+    from ..loop import run
+    from ..metrics import compute_measures
+
+    rec = diag.record
+    out: dict[str, Any] = {}
+    m = compute_measures(rec)
+    out["measured"] = {"e_rel_track": float(m["e_rel_track"]), "fei_d": float(m["fei_d"])}
+    base = dataclasses.replace(diag.scene, duration=round(rec.duration / diag.dt) * diag.dt)
+    for name, sc in (("uncalibrated", base),
+                     ("calibrated", dataclasses.replace(diag.calibrated_scene(),
+                                                        duration=base.duration))):
+        mm = compute_measures(run(sc, reference=False).record)
+        out[name] = {"e_rel_track": float(mm["e_rel_track"]), "fei_d": float(mm["fei_d"])}
+    return out
+
+
+def _verdict(result: RoundResult) -> list[str]:
+    if result.status == "noise_only":
+        return ["**Only noise remains**: no candidate effect explains the residual "
+                "significantly.", ""]
+    lines = []
+    if result.proposal is not None:
+        p = result.proposal
+        val = f"{p.param} = {p.value:.4g} {p.unit}, 95 % interval [{p.ci[0]:.4g}, " \
+              f"{p.ci[1]:.4g}]" if math.isfinite(p.value) else f"{len(p.values)} parameters"
+        head = "Proposal" if result.status == "effect_proposed" else "Partly explained by"
+        lines += [f"**{head}: `{p.effect}`** ({val}): validation error "
+                  f"{p.error_before:.3f} → {p.error_after:.3f} noise units.", ""]
+    elif result.status == "unexplained":
+        lines += ["**Unexplained residual**: no effect of the library explains it "
+                  f"significantly, yet it is not noise (validation error {result.error_val:.3g}"
+                  " noise units). Check the bench (scene) or add a new effect.", ""]
+    else:
+        lines += ["**Partly explained**: the accepted effects leave structure that no "
+                  "further library effect explains.", ""]
+    if result.remaining:
+        r = result.remaining
+        lines += ["Where the residual remains: channels " + ", ".join(
+            f"{c} ({v:.3g} σ)" for c, v in r.get("channels", {}).items())]
+        if r.get("windows_s"):
+            lines.append("; windows " + ", ".join(f"{a:.2f}–{b:.2f} s" for a, b, _ in
+                                                  r["windows_s"]))
+        if r.get("band_hz"):
+            lo, hi, ex = r["band_hz"]
+            lines.append(f"; band {lo:.3g}–{hi:.3g} Hz ({ex:.3g}× the noise floor)")
+        if r.get("state_correlation"):
+            lines.append("; correlated with " + ", ".join(
+                f"{k} ({v:+.2f})" for k, v in r["state_correlation"].items()))
+        lines += ["", ""]
+    return lines
+
+
 def write_report(diag: Diagnosis, result: RoundResult, out_dir: str | Path,
-                 warnings: list[str] | None = None, first_round: RoundResult | None = None
-                 ) -> Path:
+                 warnings: list[str] | None = None, first_round: RoundResult | None = None,
+                 hybrid: dict[str, Any] | None = None) -> Path:
     """Write ``report.md``, the three PNG plots and ``replay.parquet`` to ``out_dir``.
 
     ``result`` is the latest round; ``first_round`` (when several rounds ran) is the one whose
-    signatures are plotted, since after the last accepted effect only noise is left to
-    explain."""
+    signatures are plotted; ``hybrid`` (:func:`hybrid_figures`) adds the hybrid test's
+    column to the waterfall."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     replay_record(diag).save(out_dir / "replay.parquet")
     _plot_localisation(diag, out_dir / "localisation.png")
     sig_round = first_round or result
     _plot_signatures(sig_round, diag.channels, out_dir / "signatures.png")
-    _plot_waterfall(diag.waterfall, out_dir / "waterfall.png")
+    _plot_waterfall(diag.waterfall, out_dir / "waterfall.png", hybrid)
     loc = localisation(diag)
     lines = ["# Model versus measurement", ""]
     lines += [f"- samples: {diag.record.n} at dt = {diag.dt:g} s "
-              f"({diag.record.duration:.3g} s); channels: {', '.join(diag.channels)}"]
-    for w in warnings or []:
+              f"({diag.record.duration:.3g} s); bench: scene {diag.scene.name!r}, part "
+              f"{diag.scene.experiment.kind}; {len(diag.channels)} channels"]
+    for w in [*diag.warnings, *(warnings or [])]:
         lines.append(f"- warning: {w}")
     acc = ", ".join(f"{k} = {v:.4g}" for k, v in diag.accepted.items()) or "none"
     lines += [f"- accepted effects: {acc}",
               f"- error (noise units, 1 = only noise): training {result.error_train:.3f}, "
-              f"validation {result.error_val:.3f}", ""]
-    if result.noise_only:
-        lines += ["**Only noise remains**: no candidate effect explains the residual "
-                  "significantly.", ""]
-    elif result.proposal is None:
-        lines += ["**Unexplained residual**: no effect of the library explains it "
-                  f"significantly, yet it is not noise (validation error {result.error_val:.3g}"
-                  " noise units, whiteness " + ", ".join(f"{c} {w:.2f}" for c, w in
-                                                         result.whiteness.items())
-                  + "). Check the scene (bench parameters) or add a new effect.", ""]
-    else:
-        p = result.proposal
-        lines += [f"**Proposal: add `{p.effect}`** ({p.param} = {p.value:.4g} {p.unit}, 95 % "
-                  f"interval [{p.ci[0]:.4g}, {p.ci[1]:.4g}]): validation error "
-                  f"{p.error_before:.3f} → {p.error_after:.3f}.", ""]
+              f"validation {result.error_val:.3f}; status **{result.status}**", ""]
+    lines += _verdict(result)
     lines += ["## Per-channel residual", "", "| channel | RMS residual | noise σ | FEI amplitude "
-              "| FEI delay (ms) | RMS in contact / free (σ) |", "|---|---|---|---|---|---|"]
+              "| FEI delay (ms) |", "|---|---|---|---|---|"]
     for c in diag.channels:
         f = loc["fei"].get(c, {})
-        ct = loc["contact"][c]
-        inc = f"{ct['in_contact']:.2f}" if ct["in_contact"] is not None else "–"
-        fre = f"{ct['free']:.2f}" if ct["free"] is not None else "–"
-        lines.append(f"| {c} | {result.channel_rms[c]:.4g} {UNITS.get(c, '')} | "
+        lines.append(f"| {c} | {result.channel_rms[c]:.4g} {_unit(c)} | "
                      f"{result.noise_sigma[c]:.3g} | {f.get('amplitude', float('nan')):.4f} | "
-                     f"{1e3 * f.get('delay', float('nan')):.3f} | {inc} / {fre} |")
+                     f"{1e3 * f.get('delay', float('nan')):.3f} |")
     lines += ["", "![localisation](localisation.png)", "", "## Candidates", "",
-              "| rank | effect | value | 95 % interval | share | ΔBIC | val. error before → after "
+              "| rank | effect | value | 95 % interval | share | ΔIC | val. error before → after "
               "| significant | note |", "|---|---|---|---|---|---|---|---|---|"]
-    for i, c in enumerate(result.candidates, 1):
-        val = f"{c.value:.4g} {c.unit}" if c.fitted and math.isfinite(c.value) else "–"
-        ci = f"[{c.ci[0]:.3g}, {c.ci[1]:.3g}]" if c.fitted else "–"
-        sc = f"{c.score:.1f}" if c.fitted else "not refitted"
-        err = f"{c.error_before:.3f} → {c.error_after:.3f}" if c.fitted else "–"
+    for i, c in enumerate(result.candidates[:40], 1):
+        if math.isfinite(c.value):
+            val = f"{c.value:.4g} {c.unit}"
+        else:
+            val = f"{len(c.values)} parameters" if c.values else "–"
+        ci = f"[{c.ci[0]:.3g}, {c.ci[1]:.3g}]" if c.fitted and math.isfinite(c.ci[0]) else "–"
+        sc = f"{c.score:.1f}" if math.isfinite(c.score) else "–"
+        err = f"{c.error_before:.3f} → {c.error_after:.3f}" if math.isfinite(c.error_after) \
+            else "–"
         lines.append(f"| {i} | {c.effect} | {val} | {ci} | {c.share:.3f} | {sc} | {err} | "
                      f"{'yes' if c.significant else 'no'} | {c.note} |")
     if result.confounded:
@@ -226,14 +306,21 @@ def write_report(diag: Diagnosis, result: RoundResult, out_dir: str | Path,
               "| step | training error | validation error |", "|---|---|---|"]
     lines += [f"| {w['step']} | {w['error_train']:.3f} | {w['error_val']:.3f} |"
               for w in diag.waterfall]
+    if hybrid:
+        lines += ["", "Hybrid test (`rths3d run` of each bench scene, closed loop):", "",
+                  "| | e_rel,track (%) | FEI delay (ms) |", "|---|---|---|"]
+        lines += [f"| {n} | {100 * hybrid[n]['e_rel_track']:.4f} | "
+                  f"{1e3 * hybrid[n]['fei_d']:.4f} |"
+                  for n in ("measured", "uncalibrated", "calibrated")]
     lines += ["", "![waterfall](waterfall.png)", "", "## Operating condition", "",
               "RMS residual (noise units) by condition; rows `corr` give correlations.", ""]
-    for c in diag.channels:
+    for c, rows in loc["conditions"].items():
         lines += [f"### {c}", "", "| condition | bin | RMS / corr | share |", "|---|---|---|---|"]
         lines += [f"| {r['condition']} | {r['bin']} | {r['rms']:.3f} | {r['share']:.2f} |"
-                  for r in loc["conditions"][c]]
+                  for r in rows]
         lines.append("")
-    lines += ["Replay with the model as `model.<column>` columns: `replay.parquet`.", ""]
+    lines += ["Replay with the model as `model.<column>` and the residual (noise units) as "
+              "`residual.<column>` columns: `replay.parquet` (`rths3d view`).", ""]
     path = out_dir / "report.md"
     path.write_text("\n".join(lines))
     return path

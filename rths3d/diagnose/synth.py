@@ -1,63 +1,67 @@
-"""Synthetic measurements: the bench model with hidden effects plus sensor noise.
+"""Measurements with hidden effects, made the way a bench makes them: the closed vRTHS loop.
 
-The same effect components the diagnosis fits generate the "measurements" for tests and
-examples; the record carries only what a real bench would record (commands and measured
-channels) and the nominal bench parameters in ``meta['bench']`` — never the effects.
+:func:`measure` runs a scene through ``rths3d.run`` on the Stewart platform with effects
+declared in its bench but *hidden* from the record (its metadata describes the nominal
+bench, as the metadata of a real bench would), with a finer physics step than the diagnosis'
+replay uses and seeded measurement noise on every channel. Tests, examples and the benchmark
+hand only the resulting file to the diagnosis.
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Mapping
+import dataclasses
+from collections.abc import Mapping, Sequence
 
-import numpy as np
-
+from ..config import EffectConfig, Scene
+from ..effects import parse_label
 from ..record import Record
-from .bench import BenchConfig
 
-DEFAULT_TONES: tuple[tuple[float, float], ...] = (
-    (0.4, 3.0e-3), (1.1, 1.0e-3), (2.7, 4.0e-4), (6.3, 1.5e-4), (11.0, 8.0e-5),
-    (17.0, 4.0e-5), (31.0, 2.0e-5),
-)
-"""(frequency Hz, amplitude m) of the default multisine excitation."""
+__all__ = ["hide_effects", "measure"]
 
 
-def multisine(duration: float, dt: float = 1e-3, tones=DEFAULT_TONES, seed: int = 0,
-              taper: float = 0.25) -> tuple[np.ndarray, np.ndarray]:
-    """Commanded displacement ``z_cmd`` (m): a sum of sines with seeded random phases, faded
-    in and out over ``taper`` s so that the test starts and ends at rest. Returns (t, z_cmd)."""
-    rng = np.random.default_rng(seed)
-    n = int(round(duration / dt)) + 1
-    t = dt * np.arange(n)
-    z = np.zeros(n)
-    for f, a in tones:
-        z += a * np.sin(2 * math.pi * f * t + rng.uniform(0, 2 * math.pi))
-    w = np.ones(n)
-    m = max(2, int(round(taper / dt)))
-    ramp = 0.5 - 0.5 * np.cos(np.linspace(0.0, math.pi, m))
-    w[:m] = ramp
-    w[-m:] = ramp[::-1]
-    return t, z * w
+def _effects(effects: Mapping[str, float] | Sequence[EffectConfig]) -> list[EffectConfig]:
+    if isinstance(effects, Mapping):
+        out = []
+        for label, v in effects.items():
+            name, leg, axis = parse_label(label)
+            out.append(EffectConfig(name, float(v), leg, axis))
+        return out
+    return list(effects)
 
 
-def synthetic_measurement(effects: Mapping[str, float] | None = None, *, duration: float = 3.0,
-                          dt: float = 1e-3, noise: float = 1.0, seed: int = 0,
-                          bench: BenchConfig | None = None, excitation_seed: int | None = None,
-                          model: str = "bench") -> Record:
-    """A record as a bench would produce it, with ``effects`` hidden in the physics and
-    sensors and white sensor noise (``noise`` × the nominal σ of each channel). ``model``:
-    ``"bench"`` (1-D heave bench) or ``"stewart"`` (six-leg platform)."""
-    from .stewart import make_model
+def hide_effects(rec: Record, nominal: Scene) -> Record:
+    """The record with metadata of the ``nominal`` bench: its scene definition and flat
+    parameters without the hidden effects."""
+    from ..scene import scene_to_dict
 
-    model = make_model(bench, dt, model)
-    t, z_cmd = multisine(duration, dt, seed=seed if excitation_seed is None else excitation_seed)
-    eff = dict(effects or {})
+    meta = dict(rec.meta)
+    meta["scene_def"] = scene_to_dict(nominal)
+    meta["params"] = {k: v for k, v in dict(meta.get("params", {})).items()
+                      if not k.startswith("effect.")}
+    tm = dict(meta.get("transfer_meta", {}))
+    tm.pop("bench", None)
+    meta["transfer_meta"] = tm
+    return Record(rec.t, rec.columns, meta)
+
+
+def measure(scene: Scene, effects: Mapping[str, float] | Sequence[EffectConfig] = (), *,
+            noise: float = 1.0, substeps: int = 4, seed: int = 0,
+            duration: float | None = None, reference: bool = False) -> Record:
+    """A record of ``scene`` run closed loop on the Stewart platform with hidden ``effects``
+    (label → value, or :class:`~rths3d.config.EffectConfig`), ``substeps`` physics steps per
+    sample and white measurement noise (``noise`` × the nominal σ of each channel, seed
+    ``seed``). The record's metadata describes ``scene`` itself (the nominal bench)."""
+    from ..loop import run
+
+    tr = dataclasses.replace(scene.transfer, kind="stewart")
+    nominal = dataclasses.replace(scene, transfer=tr,
+                                  duration=scene.duration if duration is None else duration)
+    hidden = _effects(effects)
     if noise:
-        eff["sensor_noise"] = float(noise)
-    out = model.replay(z_cmd, eff, rng=np.random.default_rng(seed + 1000))
-    cols = {"z_cmd.z": z_cmd}
-    for name, values in out.items():
-        if name != "contact":
-            cols[name] = values
-    return Record(t, cols, {"scene": "bench", "bench": model.as_meta(), "dt": dt,
-                            "status": "ok", "reason": ""})
+        hidden.append(EffectConfig("sensor_noise", float(noise)))
+    truth = dataclasses.replace(
+        nominal, transfer=dataclasses.replace(tr, substeps=substeps),
+        sensor=dataclasses.replace(scene.sensor, seed=int(seed)),
+        effects=tuple(scene.effects) + tuple(hidden))
+    rec = run(truth, reference=reference).record
+    return hide_effects(rec, nominal)

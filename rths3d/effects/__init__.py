@@ -1,10 +1,21 @@
-"""Physical effects with an "off" value, for the model of a bench and synthetic measurements.
+"""Physical effects with an "off" value: the bench's effects for scenes, the vRTHS loop, the
+diagnosis and synthetic measurements.
 
-See :mod:`rths3d.effects.base` (the component) and :mod:`rths3d.effects.library` (all effects).
+See :mod:`rths3d.effects.base` (the component), :mod:`rths3d.effects.library` (all effects)
+and :mod:`rths3d.effects.blocks` (their per-step signal physics).
 """
 
-from .base import REGISTRY, STAGES, Effect, Param, get_effect, parse_effect_arg, register
-from .library import NOISE_SIGMA, OUTPUTS, describe
+from .base import (
+    REGISTRY,
+    STAGES,
+    Effect,
+    Param,
+    get_effect,
+    parse_effect_arg,
+    parse_label,
+    register,
+)
+from .library import WRENCH, describe, noise_sigma
 
-__all__ = ["REGISTRY", "STAGES", "Effect", "Param", "get_effect", "parse_effect_arg", "register",
-           "NOISE_SIGMA", "OUTPUTS", "describe"]
+__all__ = ["REGISTRY", "STAGES", "WRENCH", "Effect", "Param", "describe", "get_effect",
+           "noise_sigma", "parse_effect_arg", "parse_label", "register"]

@@ -1,20 +1,33 @@
-"""The effect component: one physical effect with parameters, bounds and an "off" value.
+"""The effect component: one physical effect of a bench with a parameter, bounds and an "off"
+value, and where it acts.
 
-An effect acts at exactly one *stage* of the model of a bench:
+An effect acts at exactly one *stage* of the bench (:class:`rths3d.bench.Bench`), the same in
+the vRTHS loop, the diagnosis' replay and synthetic measurements:
 
-``command``
-    edits the commanded interface displacement before it reaches the actuators
-    (velocity saturation, backlash); needs a re-simulation.
+``setpoint``
+    a per-leg signal block of the platform's controller at the interface rate, between the
+    inverse kinematics and the servo (transport delay, lag, rate limit, play, length offset):
+    :meth:`Effect.block`; per-test values batch freely.
 ``spec``
-    edits the MuJoCo model (``mujoco.MjSpec``) of the bench (friction, masses, stiffnesses,
-    compliance, contact geometry); needs a re-simulation.
-``dynamics``, ``sensor_dynamics``, ``sensor``, ``noise``, ``adc``
-    act on the replayed output signals only (transport delay, actuator lag, force-sensor
-    low-pass, gain / offset / cross-talk, noise, quantisation), applied in that order,
-    without re-simulating.
+    edits the bench's MuJoCo model (``mujoco.MjSpec``): leg friction, servo gain, masses,
+    stiffnesses, compliance, contact geometry, the FTS mounting: :meth:`Effect.apply_spec`.
+``geometry``
+    moves an anchor of the true platform or offsets a leg encoder (kinematic calibration):
+    :meth:`Effect.apply_geometry`; the controller keeps the nominal geometry.
+``controller``
+    a setting the controller gets wrong (gravity compensation): :meth:`Effect.apply_controller`.
+``fts``
+    the six-axis sensor's calibration (gain, cross-talk, offset of its 6×6 matrix):
+    :meth:`Effect.apply_fts` on the matrix C and offset b of the reading ``C w + b``.
+``sensor``
+    dynamics of the measured interface force (a low-pass): a signal block on ``f_meas``.
+``noise``
+    white measurement noise on every recorded channel (the floor, never proposed).
 
 Every effect has a single scalar parameter (SI unit stated in :class:`Param`) whose ``off``
-value reproduces the baseline model *exactly*: an effect at its off value is skipped.
+value reproduces the baseline exactly: an effect at its off value is skipped. An effect has a
+*target* where it acts on one part: ``leg`` (0–5; ``all_legs`` effects also take −1 for all
+six) and/or an ``axis`` from :attr:`Effect.axes`.
 """
 
 from __future__ import annotations
@@ -27,12 +40,14 @@ import numpy as np
 
 from ..errors import ConfigError
 
-STAGES: tuple[str, ...] = ("command", "spec", "dynamics", "sensor_dynamics", "sensor", "noise",
-                           "adc")
-"""Order in which effect stages act on the model (first to last)."""
+STAGES: tuple[str, ...] = ("geometry", "spec", "controller", "setpoint", "fts", "sensor",
+                           "noise")
+"""The stages in the order they are applied when a bench is built."""
 
-SIM_STAGES = frozenset({"command", "spec"})
-"""Stages that change the physics and therefore need a re-simulation."""
+SIM_STAGES = frozenset({"geometry", "spec", "controller", "setpoint"})
+"""Stages that change the physics (a replay must re-simulate)."""
+
+LEGS = tuple(range(6))
 
 
 @dataclass(frozen=True)
@@ -59,7 +74,7 @@ class Param:
     scale: float
     doc: str = ""
 
-    def check(self, value: float, effect: str) -> float:
+    def check(self, value: Any, effect: str) -> float:
         """``value`` as a float, or :class:`ConfigError` naming the field and the limits."""
         try:
             v = float(value)
@@ -74,8 +89,7 @@ class Param:
 class Effect:
     """Base class of a physical effect (subclass per effect; register with :func:`register`).
 
-    Subclasses set the class attributes and implement the hook of their stage:
-    :meth:`apply_command`, :meth:`apply_spec` or :meth:`apply_output`.
+    Subclasses set the class attributes and implement the hook of their stage.
     """
 
     name: ClassVar[str] = ""
@@ -85,13 +99,18 @@ class Effect:
     signature: ClassVar[str] = ""
     """Where the residual shows when this effect is missing (for users and the report)."""
     candidate: ClassVar[bool] = True
-    """False for effects the diagnosis never proposes (sensor noise is the floor, not a fault)."""
-    channels: ClassVar[tuple[str, ...]] = ()
-    """Output channels an output-stage effect acts on (empty: all)."""
+    """False for effects the diagnosis never proposes (sensor noise is the floor)."""
+    per_leg: ClassVar[bool] = False
+    """The effect acts on one leg (``leg`` 0–5) or, with :attr:`all_legs`, on all (−1)."""
+    all_legs: ClassVar[bool] = False
+    axes: ClassVar[tuple[str, ...]] = ()
+    """The axes it may act along (empty: it has no axis)."""
+    lti: ClassVar[bool] = False
+    """It applies to the 1-D chain transfer systems too (delay, lag, sensor effects)."""
 
     @property
     def needs_sim(self) -> bool:
-        """True if the effect changes the physics (command or spec stage)."""
+        """True if the effect changes the physics (a replay must re-simulate)."""
         return self.stage in SIM_STAGES
 
     def is_off(self, value: float) -> bool:
@@ -99,38 +118,54 @@ class Effect:
         off = self.param.off
         return value == off or (math.isinf(off) and math.isinf(value))
 
+    def targets(self) -> list[tuple[int, str]]:
+        """Every (leg, axis) the effect can act on (leg −1 / axis "" where it has none)."""
+        legs = ([-1] if self.all_legs else []) + list(LEGS) if self.per_leg else [-1]
+        axes = list(self.axes) or [""]
+        return [(leg, ax) for leg in legs for ax in axes]
+
+    def check_target(self, leg: int, axis: str) -> None:
+        """ConfigError naming the field when (leg, axis) does not fit the effect."""
+        if self.per_leg:
+            ok = leg in LEGS or (self.all_legs and leg == -1)
+            if not ok:
+                lim = "0…5" + (" or -1 (all legs)" if self.all_legs else "")
+                raise ConfigError(f"effect.{self.name}.leg", leg, f"must be {lim}")
+        elif leg != -1:
+            raise ConfigError(f"effect.{self.name}.leg", leg, "this effect has no leg")
+        if self.axes:
+            if axis not in self.axes:
+                raise ConfigError(f"effect.{self.name}.axis", axis,
+                                  f"must be one of {', '.join(self.axes)}")
+        elif axis:
+            raise ConfigError(f"effect.{self.name}.axis", axis, "this effect has no axis")
+
     # ------------------------------------------------------------------ hooks
-    def apply_command(self, z_cmd: np.ndarray, dt: float, value: float) -> np.ndarray:
-        """Commanded displacement (m) after the effect (command stage)."""
+    def block(self, K: int, values: np.ndarray, dt: float) -> Any:
+        """The set-point block over K·6 leg rows (``values``: the parameter per row, the off
+        value on rows it does not act on), or a sensor block over the f_meas rows."""
         raise NotImplementedError
 
-    def apply_spec(self, spec: Any, value: float, bench: Any) -> None:
-        """Edit the bench ``MjSpec`` in place (spec stage); ``bench`` gives nominal values."""
+    def apply_spec(self, spec: Any, value: float, ctx: Any, leg: int, axis: str) -> None:
+        """Edit the bench ``MjSpec`` in place; ``ctx`` (the bench) gives nominal values."""
         raise NotImplementedError
 
-    def apply_output(self, out: dict[str, np.ndarray], dt: float, value: float,
-                     rng: np.random.Generator | None = None) -> None:
-        """Edit the output signals in place (output stages)."""
+    def apply_geometry(self, base: np.ndarray, top: np.ndarray, offsets: np.ndarray,
+                       value: float, leg: int, axis: str) -> None:
+        """Move anchors (6, 3) / encoder offsets (6,) of the true platform in place (m)."""
         raise NotImplementedError
 
-    def block(self, K: int, n: int, dt: float, value: float) -> Any:
-        """The per-step :class:`~rths3d.effects.blocks.Block` of a signal effect at ``value``
-        (K tests × n channels, step ``dt``): what the loop's chains apply and what
-        :meth:`apply_output` runs over a replay. None for effects of other stages."""
-        return None
+    def apply_controller(self, ctl: dict[str, Any], value: float, leg: int, axis: str) -> None:
+        """Edit the controller's settings (``gravity_scale``) in place."""
+        raise NotImplementedError
+
+    def apply_fts(self, C: np.ndarray, b: np.ndarray, value: float, axis: str) -> None:
+        """Edit the FTS calibration matrix C (6, 6) and offset b (6,) in place."""
+        raise NotImplementedError
 
     # ------------------------------------------------------------------ fitting help
-    def initial_guess(self, measured: dict[str, np.ndarray], model: dict[str, np.ndarray],
-                      command: np.ndarray, dt: float) -> float | None:
-        """A signature-based start value for the fit (None: use ``param.off + param.scale``)."""
-        return None
-
-    def probe(self, measured: dict[str, np.ndarray], model: dict[str, np.ndarray],
-              command: np.ndarray, dt: float) -> float:
-        """The parameter value used to screen this effect (a typical magnitude)."""
-        guess = self.initial_guess(measured, model, command, dt)
-        if guess is not None and not self.is_off(guess):
-            return float(np.clip(guess, self.param.lo, self.param.hi))
+    def probe_value(self) -> float:
+        """The value used to screen this effect (a typical magnitude)."""
         return float(np.clip(self.param.off + self.param.scale, self.param.lo, self.param.hi))
 
     def __repr__(self) -> str:
@@ -158,10 +193,31 @@ def get_effect(name: str) -> Effect:
             from None
 
 
+def parse_label(label: str) -> tuple[str, int, str]:
+    """``name[.leg<i>][.<axis>]`` → (name, leg, axis), checked against the effect."""
+    parts = label.strip().split(".")
+    name = parts[0]
+    eff = get_effect(name)
+    leg, axis = -1, ""
+    rest = parts[1:]
+    if rest and rest[0].startswith("leg") and rest[0][3:].isdigit():
+        leg = int(rest[0][3:])
+        rest = rest[1:]
+    if rest:
+        axis = ".".join(rest)
+    if eff.per_leg and leg == -1 and not eff.all_legs:
+        raise ConfigError(f"effect.{name}.leg", None, "required: name.leg<i> (i = 0…5)")
+    eff.check_target(leg, axis)
+    return name, leg, axis
+
+
 def parse_effect_arg(text: str) -> tuple[str, float | None]:
-    """Parse ``EFFECT`` or ``EFFECT=value`` (value in the parameter's SI unit)."""
-    name, sep, raw = text.partition("=")
-    eff = get_effect(name.strip())
+    """Parse ``LABEL`` or ``LABEL=value`` (value in the parameter's SI unit); LABEL is
+    ``name[.leg<i>][.<axis>]``. Returns (label, value or None)."""
+    label, sep, raw = text.partition("=")
+    name, leg, axis = parse_label(label)
+    eff = get_effect(name)
+    lab = name + (f".leg{leg}" if leg >= 0 else "") + (f".{axis}" if axis else "")
     if not sep:
-        return eff.name, None
-    return eff.name, eff.param.check(raw.strip(), eff.name)
+        return lab, None
+    return lab, eff.param.check(raw.strip(), lab)

@@ -27,7 +27,8 @@ import numpy as np
 from numba import types
 
 __all__ = ["BLOCK_SIG", "Block", "Chain", "DelayBlock", "GainBlock", "LTIBlock", "LagBlock",
-           "NoiseBlock", "OffsetBlock", "block_kernel", "njit", "run_chain", "run_blocks"]
+           "NoiseBlock", "OffsetBlock", "PlayBlock", "RateLimitBlock", "block_kernel", "njit",
+           "run_chain", "run_blocks"]
 
 # chains call their blocks' kernels as first-class functions (one compiled caller for every
 # sequence of blocks); numba still labels that feature experimental
@@ -169,7 +170,53 @@ def _lti_kernel(p, s, u, y, w):
         y[r] = acc
 
 
+@block_kernel
+def _rate_kernel(p, s, u, y, w):
+    # rate limit: |y_n − y_{n−1}| ≤ p[r, 0] (v_max·ΔT); inf passes u
+    for r in range(u.shape[0]):
+        st = p[r, 0]
+        d = u[r] - s[r, 0]
+        if d > st:
+            d = st
+        elif d < -st:
+            d = -st
+        s[r, 0] += d
+        y[r] = s[r, 0]
+
+
+@block_kernel
+def _play_kernel(p, s, u, y, w):
+    # play (backlash) operator of total width p[r, 0]: the output follows once the input
+    # has taken up half the play on either side
+    for r in range(u.shape[0]):
+        h = 0.5 * p[r, 0]
+        if s[r, 0] < u[r] - h:
+            s[r, 0] = u[r] - h
+        elif s[r, 0] > u[r] + h:
+            s[r, 0] = u[r] + h
+        y[r] = s[r, 0]
+
+
 # ---------------------------------------------------------------------------- blocks
+class RateLimitBlock(Block):
+    """Rate limit |Δy| ≤ v_max·ΔT per row (v_max in units/s; inf: off), starting at rest (0)."""
+
+    kernel = _rate_kernel
+
+    def __init__(self, K: int, n: int, v_max: float | Sequence[float], dt: float):
+        v = _rows(v_max, K * n)
+        super().__init__(K, n, (v * dt)[:, None], np.zeros((K * n, 1)))
+
+
+class PlayBlock(Block):
+    """Play (backlash) of total width b per row (0: off), starting at rest (0)."""
+
+    kernel = _play_kernel
+
+    def __init__(self, K: int, n: int, width: float | Sequence[float]):
+        super().__init__(K, n, _rows(width, K * n)[:, None], np.zeros((K * n, 1)))
+
+
 class DelayBlock(Block):
     """Pure delay τ (s) per row, linear interpolation between samples for fractional delays;
     the output is 0 before t = τ (the loop starts at rest)."""

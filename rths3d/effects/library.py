@@ -1,19 +1,17 @@
-"""The effects library: every physical effect the diagnosis knows, in one place.
+"""The effects library: every physical effect a bench model knows, in one place.
 
 To add an effect, subclass :class:`~rths3d.effects.base.Effect` here, give it a ``name``,
 ``stage``, one :class:`~rths3d.effects.base.Param` (unit, off value, bounds, typical scale),
-a ``signature`` sentence and the hook of its stage, and decorate it with ``@register``. The
-diagnosis, the ``rths3d effects`` listing, the synthetic measurements and the report pick it
-up from :data:`~rths3d.effects.base.REGISTRY`.
+its target (``per_leg``/``all_legs``, ``axes``), a ``signature`` sentence and the hook of its
+stage, and decorate it with ``@register``. Scenes (``[[effect]]``), the vRTHS loop's Stewart
+platform, the diagnosis and ``rths3d effects`` pick it up from
+:data:`~rths3d.effects.base.REGISTRY`.
 
-Output channels of the bench models (record column names, SI units):
-``z_meas.z`` (m, plate displacement), ``f_meas.z`` and ``f_meas.x`` (N, force-torque-sensor
-force on the specimen, tared), ``leg_force.<i>`` (N, actuator forces, tared; one leg on the
-1-D bench, six on the Stewart platform).
-
-Spec-stage hooks address the model through the names a backend exposes (``bench`` argument):
-``leg_joints``, ``leg_actuators``, ``kp``, ``physics_step``, ``fixture_geom``, ``m_fixture``,
-``specimen_joint``, ``specimen_geom``, ``m_exp``, ``k_exp``, ``c_exp``, ``wall_geom``.
+Spec-stage hooks address the bench's MuJoCo model by the names of
+:mod:`rths3d.platform.model` (``leg{i}_slide``, ``leg{i}``, ``fts_body``, site ``fts``) and of
+the part (:mod:`rths3d.experiment`: the joint ``exp_heave``, the surface ``exp_surface``, the
+part's root body ``ctx.payload_body``); ``ctx`` (the :class:`~rths3d.bench.Bench`) gives the
+nominal values (``kp``, ``physics_step``).
 """
 
 from __future__ import annotations
@@ -24,305 +22,153 @@ from typing import Any
 import numpy as np
 
 from .base import Effect, Param, register
-from .blocks import Block, DelayBlock, GainBlock, LagBlock, OffsetBlock, run_blocks
+from .blocks import Block, DelayBlock, LagBlock, PlayBlock, RateLimitBlock
 
-Z = "z_meas.z"
-FZ = "f_meas.z"
-FX = "f_meas.x"
-LEG = "leg_force.0"
-LEGS: tuple[str, ...] = tuple(f"leg_force.{i}" for i in range(6))
-OUTPUTS: tuple[str, ...] = (Z, FZ, FX, *LEGS)
-"""Channels the bench models produce."""
+WRENCH = ("fx", "fy", "fz", "tx", "ty", "tz")
+"""Components of the six-axis force-torque sensor (N, N·m), in the sensor frame."""
 
-NOISE_SIGMA: dict[str, float] = {Z: 5e-7, FZ: 0.05, FX: 0.05, **{c: 0.5 for c in LEGS}}
-"""Standard deviation of sensor noise at ``sensor_noise = 1`` (m or N)."""
+CROSS = tuple(f"{a}.{b}" for a in WRENCH for b in WRENCH if a != b)
+"""Cross-talk entries ``row.column`` of the FTS matrix."""
 
-
-def _channels(out: dict[str, np.ndarray], names: tuple[str, ...]) -> list[str]:
-    return [c for c in (names or tuple(out)) if c in out]
+_DOF_SIGMA = {"x": 1e-6, "y": 1e-6, "z": 1e-6, "rx": 5e-6, "ry": 5e-6, "rz": 5e-6}
+_WRENCH_SIGMA = {"fx": 0.1, "fy": 0.1, "fz": 0.1, "tx": 0.005, "ty": 0.005, "tz": 0.005}
+_F_SIGMA = {"x": 0.1, "y": 0.1, "z": 0.1, "rx": 0.005, "ry": 0.005, "rz": 0.005}
 
 
-def _from_rest(block: Block, x: np.ndarray) -> np.ndarray:
-    """The block applied to ``x`` as it acts on a bench at rest on x[0]: on the deviation
-    from the first sample (a delay holds it, a lag starts on it)."""
-    x = np.asarray(x, dtype=float)
-    return run_blocks([block], x - x[0]) + x[0]
+def noise_sigma(column: str) -> float:
+    """Standard deviation (SI) of the measurement noise of a record column at
+    ``sensor_noise = 1``: pose and interface displacement 1 µm / 5 µrad, leg encoders 1 µm,
+    leg forces 0.5 N, FTS and interface force 0.1 N / 0.005 N·m; 0 for other columns."""
+    sig, _, lab = column.partition(".")
+    if sig in ("pose_meas", "z_meas"):
+        return _DOF_SIGMA.get(lab, 0.0)
+    if sig == "leg_len":
+        return 1e-6
+    if sig == "leg_force":
+        return 0.5
+    if sig == "fts":
+        return _WRENCH_SIGMA.get(lab, 0.0)
+    if sig == "f_meas":
+        return _F_SIGMA.get(lab, 0.0)
+    return 0.0
 
 
-def delay_signal(x: np.ndarray, dt: float, tau: float) -> np.ndarray:
-    """``x(t − τ)`` by linear interpolation; the first sample is held for ``t < τ``
-    (the loop's :class:`~rths3d.effects.blocks.DelayBlock`)."""
-    return _from_rest(DelayBlock(1, 1, tau, dt), x)
+def _legs(leg: int) -> range:
+    return range(6) if leg < 0 else range(leg, leg + 1)
 
 
-def lowpass_signal(x: np.ndarray, dt: float, tc: float) -> np.ndarray:
-    """First-order low-pass of time constant ``tc`` (s), 1/(1 + s·tc), started at rest on x[0]
-    (the loop's :class:`~rths3d.effects.blocks.LagBlock`)."""
-    return _from_rest(LagBlock(1, 1, tc, dt), x)
-
-
-# ---------------------------------------------------------------------------- signal effects
+# ---------------------------------------------------------------------------- set-point blocks
 @register
 class TransportDelay(Effect):
     name = "delay"
-    stage = "dynamics"
-    param = Param("tau", "s", 0.0, 0.0, 0.05, 2e-3, "pure transport delay of the whole loop")
-    description = "Transport delay between command and achieved motion (all outputs shift)."
-    signature = "phase lag growing linearly with frequency; residual ∝ velocity"
+    stage = "setpoint"
+    per_leg = all_legs = True
+    lti = True
+    param = Param("tau", "s", 0.0, 0.0, 0.05, 2e-3, "transport delay of the leg set-point")
+    description = "Transport delay of the leg set-points (communication, servo controller)."
+    signature = "phase lag growing linearly with frequency; residual ∝ velocity (of its leg)"
 
-    def block(self, K: int, n: int, dt: float, value: float) -> Block:
-        return DelayBlock(K, n, value, dt)
-
-    def apply_output(self, out, dt, value, rng=None):
-        for c in _channels(out, self.channels):
-            out[c] = delay_signal(out[c], dt, value)
+    def block(self, K: int, values: np.ndarray, dt: float) -> Block:
+        return DelayBlock(K, len(values) // K, values, dt)
 
 
 @register
 class ActuatorLag(Effect):
     name = "actuator_lag"
-    stage = "dynamics"
+    stage = "setpoint"
+    per_leg = all_legs = True
+    lti = True
     param = Param("tc", "s", 0.0, 0.0, 0.05, 2e-3, "time constant of the actuator bandwidth")
-    description = "Limited actuator bandwidth: first-order lag 1/(1 + s·tc) of the motion."
+    description = "Limited actuator bandwidth: first-order lag 1/(1 + s·tc) of the set-point."
     signature = "magnitude roll-off and a phase lag that saturates at 90°"
 
-    def block(self, K: int, n: int, dt: float, value: float) -> Block:
-        return LagBlock(K, n, value, dt)
-
-    def apply_output(self, out, dt, value, rng=None):
-        for c in _channels(out, self.channels):
-            out[c] = lowpass_signal(out[c], dt, value)
+    def block(self, K: int, values: np.ndarray, dt: float) -> Block:
+        return LagBlock(K, len(values) // K, values, dt)
 
 
-@register
-class FtsLowpass(Effect):
-    name = "fts_lowpass"
-    stage = "sensor_dynamics"
-    param = Param("tc", "s", 0.0, 0.0, 0.05, 2e-3, "time constant of the force-sensor filter")
-    description = "Force-torque sensor (or its amplifier) low-pass 1/(1 + s·tc)."
-    signature = "force lags and rolls off, displacement and leg force unaffected"
-    channels = (FZ, FX)
-
-    def block(self, K: int, n: int, dt: float, value: float) -> Block:
-        return LagBlock(K, n, value, dt)
-
-    def apply_output(self, out, dt, value, rng=None):
-        for c in _channels(out, self.channels):
-            out[c] = lowpass_signal(out[c], dt, value)
-
-
-@register
-class FtsGain(Effect):
-    name = "fts_gain"
-    stage = "sensor"
-    param = Param("g", "1", 0.0, -0.5, 0.5, 0.05, "relative gain error of the force sensor")
-    description = "Force sensor calibration error: F' = (1 + g)·F."
-    signature = "force residual ∝ the force itself; leg force unaffected"
-    channels = (FZ,)
-
-    def block(self, K: int, n: int, dt: float, value: float) -> Block:
-        return GainBlock(K, n, 1.0 + value)
-
-    def apply_output(self, out, dt, value, rng=None):
-        if FZ in out:
-            out[FZ] = run_blocks([self.block(1, 1, dt, value)], out[FZ])
-
-    def initial_guess(self, measured, model, command, dt):
-        f = model.get(FZ)
-        if f is None or FZ not in measured or not np.any(f):
-            return None
-        return float(np.dot(measured[FZ] - f, f) / np.dot(f, f))
-
-
-@register
-class FtsOffset(Effect):
-    name = "fts_offset"
-    stage = "sensor"
-    param = Param("b", "N", 0.0, -100.0, 100.0, 0.5, "force sensor zero offset (drift, bad tare)")
-    description = "Force sensor offset: F' = F + b."
-    signature = "constant force residual"
-    channels = (FZ,)
-
-    def block(self, K: int, n: int, dt: float, value: float) -> Block:
-        return OffsetBlock(K, n, value)
-
-    def apply_output(self, out, dt, value, rng=None):
-        if FZ in out:
-            out[FZ] = run_blocks([self.block(1, 1, dt, value)], out[FZ])
-
-    def initial_guess(self, measured, model, command, dt):
-        if FZ not in measured or FZ not in model:
-            return None
-        return float(np.mean(measured[FZ] - model[FZ]))
-
-
-@register
-class FtsCrosstalk(Effect):
-    name = "fts_crosstalk"
-    stage = "sensor"
-    param = Param("c", "1", 0.0, -0.3, 0.3, 0.02, "share of F_z read on the F_x channel")
-    description = "Force sensor cross-talk: F'_x = F_x + c·F_z."
-    signature = "lateral force residual ∝ the vertical force"
-    channels = (FX,)
-
-    def apply_output(self, out, dt, value, rng=None):
-        if FX in out and FZ in out:
-            out[FX] = out[FX] + value * out[FZ]
-
-    def initial_guess(self, measured, model, command, dt):
-        f = model.get(FZ)
-        if f is None or FX not in measured or not np.any(f):
-            return None
-        return float(np.dot(measured[FX] - model[FX], f) / np.dot(f, f))
-
-
-@register
-class SensorNoise(Effect):
-    name = "sensor_noise"
-    stage = "noise"
-    param = Param("level", "1", 0.0, 0.0, 100.0, 1.0,
-                  "white noise, multiple of the nominal σ (0.5 µm, 0.05 N, 0.5 N leg)")
-    description = "White Gaussian sensor noise on every output channel (the noise floor)."
-    signature = "white, flat spectrum, uncorrelated with every state"
-    candidate = False
-
-    def apply_output(self, out, dt, value, rng=None):
-        rng = rng if rng is not None else np.random.default_rng()
-        for c in _channels(out, self.channels):
-            out[c] = out[c] + value * NOISE_SIGMA.get(c, 0.0) * rng.standard_normal(out[c].size)
-
-
-@register
-class Quantisation(Effect):
-    name = "quantisation"
-    stage = "adc"
-    param = Param("q", "m", 0.0, 0.0, 1e-3, 2e-6,
-                  "resolution (one step) of the displacement sensor")
-    description = "Displacement sensor resolution: z' = q·round(z/q)."
-    signature = "stair steps; displacement residual uniform within ±q/2"
-    channels = (Z,)
-
-    def apply_output(self, out, dt, value, rng=None):
-        if Z in out:
-            out[Z] = value * np.round(out[Z] / value)
-
-    def initial_guess(self, measured, model, command, dt):
-        z = measured.get(Z)
-        if z is None:
-            return None
-        d = np.abs(np.diff(z))
-        d = d[d > 1e-15]
-        if d.size < 10:
-            return None
-        q = float(np.percentile(d, 1))
-        # a quantised signal sits on integer multiples of one step
-        if np.median(np.abs(z / q - np.round(z / q))) > 0.05:
-            return None
-        return q
-
-
-# ---------------------------------------------------------------------------- command effects
 @register
 class VelocitySaturation(Effect):
     name = "velocity_saturation"
-    stage = "command"
-    param = Param("v_max", "m/s", math.inf, 1e-4, 10.0, 0.005,
-                  "largest actuator speed; faster commands are rate-limited")
-    description = "Actuator velocity saturation: the set-point is rate-limited to ±v_max."
-    signature = "clipping of the velocity above a threshold; residual only at high speed"
+    stage = "setpoint"
+    per_leg = all_legs = True
+    param = Param("v_max", "m/s", math.inf, 1e-4, 10.0, 0.02,
+                  "largest leg speed; faster set-points are rate-limited")
+    description = "Leg velocity saturation: the set-point is rate-limited to ±v_max."
+    signature = "clipping of the leg velocity above a threshold; residual only at high speed"
 
-    def apply_command(self, z_cmd, dt, value):
-        step = value * dt
-        y = z_cmd.tolist()
-        prev = y[0]
-        for k in range(1, len(y)):
-            d = y[k] - prev
-            prev = prev + (step if d > step else -step if d < -step else d)
-            y[k] = prev
-        return np.asarray(y)
-
-    def probe(self, measured, model, command, dt):
-        guess = self.initial_guess(measured, model, command, dt)
-        if guess is not None:
-            return guess
-        v = np.abs(np.gradient(command, dt))
-        return float(np.clip(0.8 * np.percentile(v, 99.5), self.param.lo, self.param.hi))
-
-    def initial_guess(self, measured, model, command, dt):
-        z = measured.get(Z)
-        if z is None:
-            return None
-        zs = lowpass_signal(z, dt, 5 * dt)
-        v_meas = np.percentile(np.abs(np.gradient(zs, dt)), 99.5)
-        v_cmd = np.percentile(np.abs(np.gradient(command, dt)), 99.5)
-        if v_meas < 0.97 * v_cmd:
-            return float(np.clip(v_meas, self.param.lo, self.param.hi))
-        return None
+    def block(self, K: int, values: np.ndarray, dt: float) -> Block:
+        return RateLimitBlock(K, len(values) // K, values, dt)
 
 
 @register
 class Backlash(Effect):
     name = "backlash"
-    stage = "command"
+    stage = "setpoint"
+    per_leg = all_legs = True
     param = Param("b", "m", 0.0, 0.0, 5e-3, 2e-5, "total play (dead band width) in the drive")
-    description = "Backlash (play) in the drive train: the plate follows the motor only after "\
-                  "the play b is taken up."
-    signature = "dead band and hysteresis at reversals; displacement residual ±b/2, no force jump"
+    description = "Play in a leg's drive: the leg follows only after the play is taken up."
+    signature = "dead band and hysteresis at reversals; length residual ±b/2, no force jump"
 
-    def apply_command(self, z_cmd, dt, value):
-        h = 0.5 * value
-        y = z_cmd.tolist()
-        prev = y[0]
-        for k in range(1, len(y)):
-            x = y[k]
-            if prev < x - h:
-                prev = x - h
-            elif prev > x + h:
-                prev = x + h
-            y[k] = prev
-        return np.asarray(y)
+    def block(self, K: int, values: np.ndarray, dt: float) -> Block:
+        return PlayBlock(K, len(values) // K, values)
 
 
-# ---------------------------------------------------------------------------- physics effects
+# ---------------------------------------------------------------------------- MuJoCo model
 @register
 class CoulombFriction(Effect):
     name = "coulomb_friction"
     stage = "spec"
-    param = Param("f_c", "N", 0.0, 0.0, 2000.0, 20.0, "dry friction force of the legs")
-    description = "Coulomb (dry) friction in the legs, MuJoCo joint frictionloss."
-    signature = "leg force jumps by 2·F_c at velocity reversals; residual ∝ sign(velocity)"
+    per_leg = all_legs = True
+    param = Param("f_c", "N", 0.0, 0.0, 2000.0, 20.0, "dry friction force of a leg")
+    description = "Coulomb (dry) friction in a leg's slide, MuJoCo joint frictionloss."
+    signature = "leg force jumps by 2·F_c at the leg's velocity reversals; ∝ sign(velocity)"
 
-    def apply_spec(self, spec, value, bench):
-        for j in bench.leg_joints:
-            spec.joint(j).frictionloss = value
-            # a stiff friction constraint, so F_c is reached at small slip velocities
-            spec.joint(j).solref_friction = np.array([2.0 * bench.physics_step, 1.0])
+    def apply_spec(self, spec, value, ctx, leg, axis):
+        for i in _legs(leg):
+            j = spec.joint(f"leg{i}_slide")
+            j.frictionloss = value
+            # a stiff friction constraint, so F_c is reached at small slip velocities; its
+            # time constant is two interface steps whatever the physics step, so that runs
+            # with different substeps model the same friction
+            j.solref_friction = np.array([2.0 * ctx.platform.dt, 1.0])
 
 
 @register
 class ViscousFriction(Effect):
     name = "viscous_friction"
     stage = "spec"
-    param = Param("c_v", "N·s/m", 0.0, 0.0, 1e5, 200.0, "viscous friction coefficient of the legs")
-    description = "Viscous friction in the legs, MuJoCo joint damping."
-    signature = "leg force residual ∝ velocity; small displacement lag"
+    per_leg = all_legs = True
+    param = Param("c_v", "N·s/m", 0.0, 0.0, 1e5, 200.0, "viscous friction of a leg")
+    description = "Viscous friction in a leg's slide, MuJoCo joint damping."
+    signature = "leg force residual ∝ the leg's velocity; small length lag"
 
-    def apply_spec(self, spec, value, bench):
-        for j in bench.leg_joints:
-            spec.joint(j).damping = np.array([value, 0.0, 0.0])
+    def apply_spec(self, spec, value, ctx, leg, axis):
+        for i in _legs(leg):
+            spec.joint(f"leg{i}_slide").damping = np.array([value, 0.0, 0.0])
+
+
+def _set_kp(spec: Any, i: int, kp: float) -> None:
+    act = spec.actuator(f"leg{i}")
+    gain = np.array(act.gainprm)
+    bias = np.array(act.biasprm)
+    gain[0] = kp
+    bias[1] = -kp
+    act.gainprm = gain
+    act.biasprm = bias
 
 
 @register
-class FixtureMass(Effect):
-    name = "fixture_mass"
+class ServoGain(Effect):
+    name = "servo_gain"
     stage = "spec"
-    param = Param("m_f", "kg", 0.0, 0.0, 50.0, 0.2,
-                  "uncompensated mass between force sensor and specimen")
-    description = "Fixture (adapter) mass between FTS and specimen that the model leaves out."
-    signature = "force residual ∝ acceleration"
+    per_leg = all_legs = True
+    param = Param("dkp", "1", 0.0, -0.8, 2.0, 0.1, "relative error of a leg's position gain")
+    description = "A leg's servo position gain differs from the nominal: kp' = (1 + dkp)·kp."
+    signature = "leg force and length residual ∝ the leg's load; that leg sags differently"
 
-    def apply_spec(self, spec, value, bench):
-        spec.geom(bench.fixture_geom).mass = bench.m_fixture + value
+    def apply_spec(self, spec, value, ctx, leg, axis):
+        for i in _legs(leg):
+            _set_kp(spec, i, ctx.kp * (1.0 + value))
 
 
 @register
@@ -331,19 +177,68 @@ class PlatformCompliance(Effect):
     stage = "spec"
     param = Param("c", "m/N", 0.0, 0.0, 1e-4, 2e-7,
                   "series compliance of legs, joints and reaction frame")
-    description = "Compliance in series with the servo stiffness: k_p' = k_p / (1 + k_p·c)."
+    description = "Compliance in series with every leg servo: kp' = kp / (1 + kp·c)."
     signature = "displacement residual ∝ force"
 
-    def apply_spec(self, spec, value, bench):
-        kp = bench.kp / (1.0 + bench.kp * value)
-        for name in bench.leg_actuators:
-            act = spec.actuator(name)
-            gain = np.array(act.gainprm)
-            bias = np.array(act.biasprm)
-            gain[0] = kp
-            bias[1] = -kp
-            act.gainprm = gain
-            act.biasprm = bias
+    def apply_spec(self, spec, value, ctx, leg, axis):
+        for i in range(6):
+            _set_kp(spec, i, ctx.kp / (1.0 + ctx.kp * value))
+
+
+@register
+class FixtureMass(Effect):
+    name = "fixture_mass"
+    stage = "spec"
+    param = Param("m_f", "kg", 0.0, 0.0, 50.0, 0.2,
+                  "uncompensated payload mass between force sensor and part")
+    description = "Payload (adapter) mass on the FTS that the model leaves out."
+    signature = "force residual ∝ acceleration (and gravity in the untared wrench)"
+
+    def apply_spec(self, spec, value, ctx, leg, axis):
+        import mujoco
+
+        body = spec.body("fts_body")
+        body.add_geom(name="effect_fixture", type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                      size=[0.01, 0, 0], pos=[0, 0, ctx.fts_height + 0.005], mass=value,
+                      contype=0, conaffinity=0)
+
+
+@register
+class PayloadCom(Effect):
+    name = "payload_com"
+    stage = "spec"
+    axes = ("x", "y")
+    param = Param("d", "m", 0.0, -0.05, 0.05, 0.005,
+                  "offset of the part (and its centre of mass) on the FTS")
+    description = "The part sits off the sensor axis: its weight and inertia add torques."
+    signature = "FTS torque residual ∝ weight and acceleration; tilt-dependent"
+
+    def apply_spec(self, spec, value, ctx, leg, axis):
+        body = spec.body(ctx.payload_body)
+        pos = np.array(body.pos)
+        pos["xy".index(axis)] += value
+        body.pos = pos
+
+
+@register
+class FtsMount(Effect):
+    name = "fts_mount"
+    stage = "spec"
+    axes = ("x", "y", "z")
+    param = Param("d", "m", 0.0, -0.05, 0.05, 0.005,
+                  "mounting offset of the FTS reference point")
+    description = "The sensor's reference point is off its nominal place on the plate."
+    signature = "torque residual ∝ force × offset; forces unaffected"
+
+    def apply_spec(self, spec, value, ctx, leg, axis):
+        site = spec.site("fts")
+        pos = np.array(site.pos)
+        pos["xyz".index(axis)] += value
+        site.pos = pos
+
+
+def _payload_joint(spec: Any) -> Any:
+    return spec.joint("exp_heave")
 
 
 @register
@@ -351,12 +246,13 @@ class SpecimenStiffness(Effect):
     name = "specimen_stiffness"
     stage = "spec"
     param = Param("dk", "1", 0.0, -0.9, 3.0, 0.1, "relative stiffness error: k' = (1 + dk)·k")
-    description = "Specimen stiffness differs from the model."
-    signature = "force residual ∝ specimen deformation; resonance shifts"
+    description = "The part's stiffness differs from the model."
+    signature = "force residual ∝ the part's deformation; resonance shifts"
 
-    def apply_spec(self, spec, value, bench):
-        spec.joint(bench.specimen_joint).stiffness = np.array(
-            [bench.k_exp * (1.0 + value), 0.0, 0.0])
+    def apply_spec(self, spec, value, ctx, leg, axis):
+        j = _payload_joint(spec)
+        st = np.array(j.stiffness)
+        j.stiffness = np.array([st[0] * (1.0 + value), 0.0, 0.0])
 
 
 @register
@@ -364,24 +260,31 @@ class SpecimenMass(Effect):
     name = "specimen_mass"
     stage = "spec"
     param = Param("dm", "1", 0.0, -0.9, 5.0, 0.1, "relative mass error: m' = (1 + dm)·m")
-    description = "Specimen mass differs from the model (it also sags further on its spring)."
-    signature = "force residual ∝ the specimen's absolute acceleration; resonance shifts"
+    description = "The part's mass differs from the model (it also sags further)."
+    signature = "force residual ∝ the part's absolute acceleration; resonance shifts"
 
-    def apply_spec(self, spec, value, bench):
-        spec.geom(bench.specimen_geom).mass = bench.m_exp * (1.0 + value)
+    def apply_spec(self, spec, value, ctx, leg, axis):
+        body = spec.body(ctx.payload_body)
+        if body.explicitinertial:
+            body.mass = body.mass * (1.0 + value)
+            body.inertia = np.array(body.inertia) * (1.0 + value)
+        else:
+            for g in body.geoms:
+                g.mass = g.mass * (1.0 + value)
 
 
 @register
 class SpecimenDamping(Effect):
     name = "specimen_damping"
     stage = "spec"
-    param = Param("dc", "1", 0.0, -1.0, 20.0, 0.5, "relative damping error: c' = (1 + dc)·c")
-    description = "Specimen damping differs from the model."
-    signature = "force residual ∝ specimen deformation rate, largest near resonance"
+    param = Param("dc", "N·s/m", 0.0, -1e3, 1e4, 2.0, "damping of the part added to the model's")
+    description = "The part's damping differs from the model: d' = d + dc."
+    signature = "force residual ∝ the part's deformation rate, largest near resonance"
 
-    def apply_spec(self, spec, value, bench):
-        spec.joint(bench.specimen_joint).damping = np.array(
-            [bench.c_exp * (1.0 + value), 0.0, 0.0])
+    def apply_spec(self, spec, value, ctx, leg, axis):
+        j = _payload_joint(spec)
+        d = np.array(j.damping)
+        j.damping = np.array([max(d[0] + value, 0.0), 0.0, 0.0])
 
 
 @register
@@ -389,25 +292,160 @@ class ContactGap(Effect):
     name = "contact_gap"
     stage = "spec"
     param = Param("dh", "m", 0.0, -0.01, 0.01, 2e-4, "error of the gap to the contact surface")
-    description = "The contact surface is dh further away than modelled (contact mismatch)."
+    description = "The contact surface is dh further away than modelled."
     signature = "force residual only in and near contact phases"
 
-    def apply_spec(self, spec, value, bench):
-        g = spec.geom(bench.wall_geom)
+    def apply_spec(self, spec, value, ctx, leg, axis):
+        g = spec.geom("exp_surface")
         pos = np.array(g.pos)
         pos[2] += value
         g.pos = pos
 
 
+# ---------------------------------------------------------------------------- geometry
+@register
+class BaseAnchor(Effect):
+    name = "base_anchor"
+    stage = "geometry"
+    per_leg = True
+    axes = ("x", "y", "z")
+    param = Param("d", "m", 0.0, -0.02, 0.02, 1e-3, "base anchor position error")
+    description = "A base anchor sits off its drawn position (kinematic calibration)."
+    signature = "absolute pose error that depends on the pose; leg lengths consistent"
+
+    def apply_geometry(self, base, top, offsets, value, leg, axis):
+        base[leg, "xyz".index(axis)] += value
+
+
+@register
+class TopAnchor(Effect):
+    name = "top_anchor"
+    stage = "geometry"
+    per_leg = True
+    axes = ("x", "y", "z")
+    param = Param("d", "m", 0.0, -0.02, 0.02, 1e-3, "platform anchor position error")
+    description = "A platform anchor sits off its drawn position (kinematic calibration)."
+    signature = "absolute pose error that depends on the pose; leg lengths consistent"
+
+    def apply_geometry(self, base, top, offsets, value, leg, axis):
+        top[leg, "xyz".index(axis)] += value
+
+
+@register
+class LegOffset(Effect):
+    name = "leg_offset"
+    stage = "geometry"
+    per_leg = True
+    param = Param("d", "m", 0.0, -0.02, 0.02, 2e-4,
+                  "encoder offset: the encoder reads the geometric length plus d")
+    description = "A leg's encoder zero is off: the leg is d shorter than the encoder says."
+    signature = "constant pose offset along that leg's direction; its length reads biased"
+
+    def apply_geometry(self, base, top, offsets, value, leg, axis):
+        offsets[leg] += value
+
+
+# ---------------------------------------------------------------------------- controller
+@register
+class GravityComp(Effect):
+    name = "gravity_comp"
+    stage = "controller"
+    param = Param("dg", "1", 0.0, -1.0, 1.0, 0.05,
+                  "relative error of the compensated weight")
+    description = "Gravity compensation of the wrong weight: offsets scaled by (1 + dg)."
+    signature = "static sag at rest (zeroed away); leg forces unchanged in motion"
+
+    def apply_controller(self, ctl, value, leg, axis):
+        ctl["gravity_scale"] *= 1.0 + value
+
+
+# ---------------------------------------------------------------------------- FTS
+@register
+class FtsGain(Effect):
+    name = "fts_gain"
+    stage = "fts"
+    axes = WRENCH
+    param = Param("g", "1", 0.0, -0.5, 0.5, 0.02, "relative gain error of one FTS channel")
+    description = "FTS calibration: one channel reads (1 + g) times the true component."
+    signature = "residual of that channel ∝ the channel itself (untared: incl. the weight)"
+
+    def apply_fts(self, C, b, value, axis):
+        i = WRENCH.index(axis)
+        C[i, i] *= 1.0 + value
+
+
+@register
+class FtsCrosstalk(Effect):
+    name = "fts_crosstalk"
+    stage = "fts"
+    axes = CROSS
+    param = Param("c", "1", 0.0, -0.3, 0.3, 0.01,
+                  "share of one component read on another channel (row.column)")
+    description = "FTS cross-talk: channel ``row`` reads c times component ``column`` too."
+    signature = "residual of one channel ∝ another component"
+
+    def apply_fts(self, C, b, value, axis):
+        r, c = axis.split(".")
+        C[WRENCH.index(r), WRENCH.index(c)] += value
+
+
+@register
+class FtsOffset(Effect):
+    name = "fts_offset"
+    stage = "fts"
+    axes = WRENCH
+    param = Param("b", "N", 0.0, -100.0, 100.0, 0.5,
+                  "zero offset of one FTS channel (N or N·m)")
+    description = "FTS zero offset (drift since it was zeroed unloaded); tared away in f_meas."
+    signature = "constant residual of that raw channel"
+
+    def apply_fts(self, C, b, value, axis):
+        b[WRENCH.index(axis)] += value
+
+
+# ---------------------------------------------------------------------------- sensor signals
+@register
+class FtsLowpass(Effect):
+    name = "fts_lowpass"
+    stage = "sensor"
+    lti = True
+    param = Param("tc", "s", 0.0, 0.0, 0.05, 2e-3, "time constant of the force-sensor filter")
+    description = "Force sensor (or amplifier) low-pass 1/(1 + s·tc) of the interface force."
+    signature = "measured force lags and rolls off; displacement and leg force unaffected"
+
+    def block(self, K: int, values: np.ndarray, dt: float) -> Block:
+        return LagBlock(K, len(values) // K, values, dt)
+
+
+@register
+class SensorNoise(Effect):
+    name = "sensor_noise"
+    stage = "noise"
+    candidate = False
+    lti = True
+    param = Param("level", "1", 0.0, 0.0, 100.0, 1.0,
+                  "white noise, multiple of the nominal σ of each channel "
+                  "(1 µm, 5 µrad, 0.1 N, 0.005 N·m, 0.5 N per leg)")
+    description = "White Gaussian measurement noise on every recorded channel (the floor)."
+    signature = "white, flat spectrum, uncorrelated with every state"
+
+
 def describe() -> list[dict[str, Any]]:
-    """All effects as plain dicts (name, stage, parameter, unit, off, bounds, signature)."""
+    """All effects as plain dicts (name, stage, parameter, unit, off, bounds, target,
+    signature)."""
     from .base import REGISTRY
 
     rows = []
     for eff in REGISTRY.values():
         p = eff.param
+        target = ("leg (0–5" + (", -1 all" if eff.all_legs else "") + ")") if eff.per_leg \
+            else ""
+        if eff.axes:
+            ax = ", ".join(eff.axes) if len(eff.axes) <= 6 else "row.column of fx … tz"
+            target = (target + "; " if target else "") + f"axis ({ax})"
         rows.append({"effect": eff.name, "stage": eff.stage, "param": p.name, "unit": p.unit,
                      "off": p.off, "lo": p.lo, "hi": p.hi, "scale": p.scale,
-                     "candidate": eff.candidate, "needs_sim": eff.needs_sim,
+                     "target": target, "per_leg": eff.per_leg, "axes": list(eff.axes),
+                     "candidate": eff.candidate, "needs_sim": eff.needs_sim, "lti": eff.lti,
                      "description": eff.description, "signature": eff.signature})
     return rows

@@ -25,6 +25,7 @@ from .linear import LinearPart
 from .mjcf import specimen_model_xml
 from .mujoco_specimen import MujocoSpecimen
 from .multidof import MultiDofPart
+from .rigid import RigidPart
 from .specimen import Specimen1D
 
 __all__ = [
@@ -34,6 +35,7 @@ __all__ = [
     "LinearPart",
     "MujocoSpecimen",
     "MultiDofPart",
+    "RigidPart",
     "PartModel",
     "Specimen1D",
     "build_part_model",

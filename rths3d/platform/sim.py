@@ -8,9 +8,28 @@ kernel, advances MuJoCo by one interface step (``mujoco.batch.Batch`` for K > 1,
 the measured limits. :class:`PlatformSim` is the same code for one platform with float
 poses and a :class:`~rths3d.errors.SafetyStop` raised at a limit.
 
-Timing convention: MuJoCo evaluates sensors (and actuator forces) at the start of a physics
-step, so after ``step`` the FTS wrench and leg forces describe the state one physics step
-(``dt / substeps``) before the returned pose, like a sensor sampled before the plate moves.
+Timing and zeroing convention (one for the vRTHS loop, the diagnosis' replay and synthetic
+measurements; docs/architecture.md, "The bench"):
+
+* the pose commanded at interface step k is the target for the end of the step, t_{k+1};
+  its leg set-point c_{k+1} = inverse kinematics + backward-difference velocity
+  feed-forward passes the controller's per-leg set-point blocks (lag, transport delay and the
+  bench's per-leg effects, :mod:`rths3d.effects.blocks`, at the interface rate) and then
+  gravity compensation (computed on the *nominal* model, what the controller knows) and the
+  per-leg encoder bias are added;
+* during the step the servo's set-point ramps linearly from c_k to c_{k+1} (a first-order
+  hold: the servo integrates the set-point rate, so it reaches c_{k+1} at t_{k+1}, with no
+  jumps that would excite the plate at every sample and make the sampled forces depend on
+  the sampling instant); MuJoCo integrates with RK4 by default, so the physics step drops
+  out (1 ms and 0.25 ms steps agree to well below sensor noise);
+* every channel is sampled at t_{k+1} from one consistent state: after the last substep
+  ``mj_forward`` evaluates the sensors and actuator forces (MuJoCo's own sensors after
+  ``mj_step`` describe the start of the last substep);
+* zero and tare are taken at measured rest after settling, as a bench does: the interface
+  displacement ``z_meas`` from the rest pose, the interface force ``f_meas`` and the leg
+  forces tared at rest. The absolute plate pose (``pose``) and the leg lengths (encoders)
+  are not re-zeroed; the raw FTS wrench (``wrench``) is zeroed unloaded (it carries the
+  payload's weight).
 """
 
 from __future__ import annotations
@@ -18,12 +37,13 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 import mujoco.batch
 import numpy as np
 
-from ..effects.blocks import njit
+from ..effects.blocks import Block, Chain, DelayBlock, LagBlock, njit
 from ..errors import ConfigError, SafetyStop
 from .model import PlatformConfig, build_model
 
@@ -73,6 +93,8 @@ class _Ids:
         self.fts_site = model.site("fts").id
         self.force_adr = int(model.sensor_adr[model.sensor("fts_force").id])
         self.torque_adr = int(model.sensor_adr[model.sensor("fts_torque").id])
+        self.legf_adr = int(model.sensor_adr[model.sensor("leg0_force").id])
+        self.quat_adr = int(model.sensor_adr[model.sensor("fts_quat").id])
         mech = []
         for i in range(6):
             for j in ("u1", "u2", "slide"):
@@ -230,9 +252,10 @@ def world_wrench(R, sens_f, sens_t, pre, rows, out):
 
 
 @njit
-def read_interface(q, hh, idx, R, sens_f, sens_t, pre, z, f):
-    """Achieved interface DOFs ``idx`` (of x y z rx ry rz) from the plate qpos rows (K, 7)
-    and the measured interface wrench rows ``idx`` (world axes, preload removed)."""
+def read_interface(q, hh, idx, R, sens_f, sens_t, pre, z, f, rest):
+    """Achieved interface DOFs ``idx`` (of x y z rx ry rz) from the plate qpos rows (K, 7),
+    relative to the rest pose ``rest`` (K, 6), and the measured interface wrench rows
+    ``idx`` (world axes, tare ``pre`` removed)."""
     for k in range(q.shape[0]):
         w, x, y, zq = q[k, 3], q[k, 4], q[k, 5], q[k, 6]
         for c in range(idx.shape[0]):
@@ -245,19 +268,11 @@ def read_interface(q, hh, idx, R, sens_f, sens_t, pre, z, f):
                 z[k, c] = math.asin(min(max(2 * (w * y - x * zq), -1.0), 1.0))
             else:
                 z[k, c] = math.atan2(2 * (x * y + w * zq), 1 - 2 * (y * y + zq * zq))
+            z[k, c] -= rest[k, i]
             a = i % 3
             src = sens_f if i < 3 else sens_t
             f[k, c] = (R[k, 3 * a] * src[k, 0] + R[k, 3 * a + 1] * src[k, 1]
                        + R[k, 3 * a + 2] * src[k, 2]) - pre[k, i]
-
-
-@njit
-def after_step(q, v, f, half, vmax, fmax, run, plate_q, hh, idx, R, sens_f, sens_t, pre, z,
-               fout):
-    """After one interface step: read the interface (:func:`read_interface`) and return
-    whether a running test's legs left their limits (:func:`measured_over`)."""
-    read_interface(plate_q, hh, idx, R, sens_f, sens_t, pre, z, fout)
-    return measured_over(q, v, f, half, vmax, fmax, run)
 
 
 @njit
@@ -269,11 +284,69 @@ def interface_command(u, idx, poses):
 
 
 @njit
-def command_legs(u, idx, poses, b, p, hh, home, off, ffg, Lprev, L, ctrl, a0, half, vdt, run):
-    """:func:`interface_command`, then :func:`leg_setpoints` (one call on the hot path)."""
-    interface_command(u, idx, poses)
-    return leg_setpoints(poses, b, p, hh, home, off, ffg, Lprev, L, ctrl, a0, half, vdt, run,
-                         True)
+def ramp_ctrl(y, off, bias, cprev, cnew, ctrl, a0, inv_dt, run):
+    """Set-points of K platforms for the end of the step, ``cnew = y + off + bias`` (block
+    output, gravity compensation, encoder bias), and the set-point rate ``(cnew − cprev)/ΔT``
+    written to ``ctrl[k, a0 + i]`` (the servo integrates it: a linear ramp over the step);
+    stopped tests hold (rate 0)."""
+    for k in range(y.shape[0]):
+        for i in range(6):
+            if run[k]:
+                c = y[k, i] + off[k, i] + bias[k, i]
+                cnew[k, i] = c
+                ctrl[k, a0 + i] = (c - cprev[k, i]) * inv_dt
+            else:
+                ctrl[k, a0 + i] = 0.0
+
+
+@njit
+def end_ramp(cnew, cprev, act, s0, run):
+    """After the step: the servo set-points (activations ``act[k, s0 + i]``) are exactly
+    ``cnew`` (no rounding drift of the integration), and ``cprev = cnew``."""
+    for k in range(cnew.shape[0]):
+        if run[k]:
+            for i in range(6):
+                act[k, s0 + i] = cnew[k, i]
+                cprev[k, i] = cnew[k, i]
+
+
+@njit
+def quat_rows(q, R):
+    """Row-major rotation matrices (K, 9) of unit quaternions (K, 4) (w, x, y, z)."""
+    for k in range(q.shape[0]):
+        w, x, y, z = q[k, 0], q[k, 1], q[k, 2], q[k, 3]
+        R[k, 0] = 1 - 2 * (y * y + z * z)
+        R[k, 1] = 2 * (x * y - w * z)
+        R[k, 2] = 2 * (x * z + w * y)
+        R[k, 3] = 2 * (x * y + w * z)
+        R[k, 4] = 1 - 2 * (x * x + z * z)
+        R[k, 5] = 2 * (y * z - w * x)
+        R[k, 6] = 2 * (x * z - w * y)
+        R[k, 7] = 2 * (y * z + w * x)
+        R[k, 8] = 1 - 2 * (x * x + y * y)
+
+
+@njit
+def copy_fts(sf, st, out):
+    """The FTS reading (K, 6) of an ideal sensor: MuJoCo's force and torque."""
+    for k in range(sf.shape[0]):
+        for c in range(3):
+            out[k, c] = sf[k, c]
+            out[k, 3 + c] = st[k, c]
+
+
+@njit
+def fts_distort(sf, st, C, b, of, ot):
+    """Raw FTS reading of a miscalibrated sensor: ``w' = C w + b`` per test (K, 6, 6)."""
+    for k in range(sf.shape[0]):
+        for r in range(6):
+            acc = b[k, r]
+            for c in range(3):
+                acc += C[k, r, c] * sf[k, c] + C[k, r, 3 + c] * st[k, c]
+            if r < 3:
+                of[k, r] = acc
+            else:
+                ot[k, r - 3] = acc
 
 
 class _OneSim:
@@ -342,68 +415,99 @@ class _ManySims:
         return (self._time < expected) | (self.batch.status != 0)
 
 class PlatformBatch:
-    """K platforms (one model, per-test parameters) stepped together.
+    """K platforms (one model structure, per-test parameters) stepped together.
 
     ``step(poses)`` takes commanded poses (K, 6) (m, rad, relative to home). A test that
     leaves a limit is frozen at its last safe state (its commands no longer change) and
     flagged: ``stopped[k]`` is True and ``reasons[k]`` holds the :class:`SafetyStop`
     message; the other tests go on. Reads are arrays: ``pose`` (K, 6), ``leg_lengths``
-    (K, 6), ``leg_forces`` (K, 6), ``wrench`` (K, 6) and ``interface_wrench`` (K, 6).
+    (K, 6), ``leg_forces`` (K, 6), ``wrench`` (K, 6) and ``interface_wrench`` (K, 6); the
+    timing and zeroing convention is the module docstring's.
 
-    Per-test model parameters: ``batch.batch.expand(field)`` (see
-    ``mujoco.batch.Batch.expand``), e.g. payload masses through
-    ``batch.batch.body(name).mass = masses[:, None]`` (with ``.inertia`` scaled alike: a
-    heavier payload of one shape); then call ``reset(set_const=True)`` so that the static
-    equilibrium (gravity compensation, FTS preload) follows. ``variants`` (one
-    ``(config, payload_xml, world_xml)`` per test, one model structure) run each test on its
-    own compiled model; a payload or world of another structure raises ConfigError. One
-    test (``nsim = 1``) steps a plain ``MjData``.
+    Per-test models: ``variants`` (one ``(config, payload_xml, world_xml)`` per test) or
+    ``models`` (compiled ``MjModel`` per test, e.g. a bench's truth with its hidden effects,
+    :class:`rths3d.bench.Bench`); ``nominal`` (one model or one per test) is what the
+    controller knows: its gravity compensation is computed there (default: each test's own
+    model). ``config`` is the controller's: its geometry drives the inverse kinematics, its
+    actuator settings the feed-forward and the set-point lag and delay. ``blocks``: extra
+    per-leg set-point blocks over K·6 rows (row ``6k + i``: leg i of test k), applied after
+    the lag and delay; ``bias`` (K, 6): per-leg set-point bias (m) that the encoders do not
+    see (leg offsets, a true geometry other than the nominal one); ``gravity_scale`` (K,):
+    the compensated weight relative to the nominal model's; ``fts_matrix`` (K, 6, 6) and
+    ``fts_offset`` (K, 6): a miscalibrated FTS reads ``C w + b``.
+
+    After changing masses or inertias of the batch in place (``batch.batch.body(name).mass
+    = ...``) call ``reset(set_const=True)``. One test (``nsim = 1``) steps a plain ``MjData``.
     """
 
     def __init__(self, config: PlatformConfig | None = None, nsim: int = 1, nthread: int = 0,
                  payload_xml: str | None = None, world_xml: str | None = None,
                  settle: float = 0.05, *,
-                 variants: Sequence[tuple[PlatformConfig, str | None, str | None]] | None = None):
+                 variants: Sequence[tuple[PlatformConfig, str | None, str | None]] | None = None,
+                 models: Sequence[Any] | None = None, nominal: Any = None,
+                 configs: Sequence[PlatformConfig] | None = None,
+                 blocks: Sequence[Block] = (), bias: np.ndarray | None = None,
+                 gravity_scale: np.ndarray | None = None,
+                 fts_matrix: np.ndarray | None = None, fts_offset: np.ndarray | None = None):
         if not (isinstance(nsim, int) and nsim >= 1):
             raise ConfigError("nsim", nsim, "must be an integer >= 1")
+        cfgs = None
         if variants is not None:
             # per-test (config, payload, world): one model structure, per-test parameters
             if len(variants) != nsim:
                 raise ConfigError("variants", len(variants), f"need one per test ({nsim})")
             config = variants[0][0]
-            shared = ("geometry", "dt", "substeps", "stroke", "velocity_limit", "force_limit")
-            for cfg_k, _, _ in variants:
+            cfgs = [v[0] for v in variants]
+            payload_xml, world_xml = variants[0][1], variants[0][2]
+        elif configs is not None:
+            if len(configs) != nsim:
+                raise ConfigError("configs", len(configs), f"need one per test ({nsim})")
+            cfgs = list(configs)
+            config = cfgs[0]
+        if cfgs is not None:
+            shared = ("geometry", "dt", "substeps", "stroke", "velocity_limit", "force_limit",
+                      "integrator")
+            for cfg_k in cfgs:
                 for name in shared:
                     if getattr(cfg_k, name) != getattr(config, name):
                         raise ConfigError(f"platform.{name}", getattr(cfg_k, name),
                                           "must be the same for tests stepped together")
-                if (cfg_k.actuator.delay, cfg_k.actuator.timeconst > 0) != \
-                        (config.actuator.delay, config.actuator.timeconst > 0):
-                    raise ConfigError("platform.actuator", cfg_k.actuator,
-                                      "delay and lag (on/off) must match for tests stepped "
-                                      "together (they change the model's structure)")
-            payload_xml, world_xml = variants[0][1], variants[0][2]
         self.config = config = config or PlatformConfig()
-        self.model = build_model(config, payload_xml, world_xml)
+        if models is not None:
+            if len(models) != nsim:
+                raise ConfigError("models", len(models), f"need one per test ({nsim})")
+            self.model = models[0]
+        else:
+            self.model = build_model(config, payload_xml, world_xml)
         self.nsim = nsim
         self.ids = _Ids(self.model)
         self.settle = float(settle)
-        self.batch = _OneSim(self.model) if nsim == 1 and variants is None else \
-            _ManySims(self.model, nsim, nthread)
-        self._cfgs = [config] * nsim
-        if variants is not None and len(set(variants)) > 1:
+        self._cfgs = cfgs if cfgs is not None else [config] * nsim
+        one = nsim == 1 and variants is None
+        self.batch = _OneSim(self.model) if one else _ManySims(self.model, nsim, nthread)
+        per_test = None
+        if models is not None and nsim > 1:
+            per_test = list(models)
+        elif variants is not None and len(set(variants)) > 1:
             compiled: dict = {variants[0]: self.model}
             for v in variants:
                 if v not in compiled:
                     compiled[v] = build_model(*v)
+            per_test = [compiled[v] for v in variants]
+        if per_test is not None:
             try:
-                self.batch.set_models([compiled[v] for v in variants])
+                self.batch.set_models(per_test)
             except (ValueError, mujoco.FatalError) as exc:
                 # FatalError: a payload or world of another structure (bodies, joints, ...)
                 raise ConfigError("variants", None, "", message="variants: tests stepped "
                                   "together need one model structure (the same payload and "
                                   f"world bodies, joints and sensors): {exc}") from exc
-            self._cfgs = [v[0] for v in variants]
+        if nominal is None or isinstance(nominal, mujoco.MjModel):
+            self._nominal = [nominal] * nsim
+        else:
+            if len(nominal) != nsim:
+                raise ConfigError("nominal", len(nominal), f"need one per test ({nsim})")
+            self._nominal = list(nominal)
         self._ctrl = self.batch.bind("ctrl")
         self._qpos = self.batch.bind("qpos")
         self._qvel = self.batch.bind("qvel")
@@ -428,7 +532,7 @@ class PlatformBatch:
         self._legs_q = self._qpos[:, self._q_slice]
         self._legs_v = self._qvel[:, self._v_slice]
         self._legs_f = self._force[:, self._a0:self._a0 + 6]
-        # anchors for the per-step inverse kinematics
+        # anchors for the per-step inverse kinematics (the controller's geometry)
         self._b = np.ascontiguousarray(g.base_anchors(), dtype=float)
         self._p = np.ascontiguousarray(g.top_anchors(), dtype=float)
         self._hh = float(g.home_height)
@@ -436,14 +540,55 @@ class PlatformBatch:
         self.plate_qpos = self._qpos[:, pa:pa + 7]
         """Live (K, 7) view of the plate's free-joint qpos (position m, quaternion wxyz)."""
         fa, ta = self.ids.force_adr, self.ids.torque_adr
-        self._fts_force = self._sensor[:, fa:fa + 3]
-        self._fts_torque = self._sensor[:, ta:ta + 3]
+        self._raw_force = self._sensor[:, fa:fa + 3]
+        self._raw_torque = self._sensor[:, ta:ta + 3]
+        # the sensor's reading (K, 6): a copy of MuJoCo's, or C w + b of a miscalibrated one
+        self.fts_reading = np.zeros((nsim, 6))
+        """Live (K, 6) raw FTS reading of the last sample (N, N·m), sensor frame."""
+        self._fts_force = self.fts_reading[:, :3]
+        self._fts_torque = self.fts_reading[:, 3:]
+        if fts_matrix is not None or fts_offset is not None:
+            C = np.tile(np.eye(6), (nsim, 1, 1)) if fts_matrix is None else \
+                np.ascontiguousarray(np.broadcast_to(fts_matrix, (nsim, 6, 6)), dtype=float)
+            bo = np.zeros((nsim, 6)) if fts_offset is None else \
+                np.ascontiguousarray(np.broadcast_to(fts_offset, (nsim, 6)), dtype=float)
+            self._fts_C, self._fts_b = C, bo
+        else:
+            self._fts_C = None
+            self._fts_b = np.zeros((nsim, 6))
         self._fts_R = self._xmat[:, self.ids.fts_site]
+        la, qa = self.ids.legf_adr, self.ids.quat_adr
+        self.leg_force_sensor = self._sensor[:, la:la + 6]
+        """Live (K, 6) leg forces from the sensors (N): the start-of-step evaluation."""
+        self._fts_quat = self._sensor[:, qa:qa + 4]
+        self._R_start = np.zeros((nsim, 9))
         self._L = np.zeros((nsim, 6))
+        self._zero6 = np.zeros((nsim, 6))
+        self._sp = np.zeros((nsim, 6))
+        self._cprev = np.zeros((nsim, 6))
+        self._cnew = np.zeros((nsim, 6))
+        self._bias = np.zeros((nsim, 6)) if bias is None else \
+            np.ascontiguousarray(np.broadcast_to(bias, (nsim, 6)), dtype=float)
+        self._gscale = np.ones(nsim) if gravity_scale is None else \
+            np.asarray(np.broadcast_to(gravity_scale, (nsim,)), dtype=float)
+        # the controller's set-point blocks: lag and transport delay of each test's settings,
+        # then the bench's per-leg blocks (effects)
+        chain: list[Block] = []
+        tcs = np.repeat([c.actuator.timeconst for c in self._cfgs], 6)
+        if np.any(tcs > 0):
+            chain.append(LagBlock(nsim, 6, tcs, config.dt))
+        dls = np.repeat([c.actuator.delay for c in self._cfgs], 6)
+        if np.any(dls > 0):
+            chain.append(DelayBlock(nsim, 6, dls, config.dt))
+        chain.extend(blocks)
+        self.setpoint_chain = Chain(nsim, 6, chain)
         self.poses = np.zeros((nsim, 6))
         """The poses (K, 6) commanded by the last step (m, rad, relative to home)."""
         self._fresh = False
         self._nsub = int(config.substeps)
+        self._inv_dt = 1.0 / config.dt
+        self._act = self.batch.bind("act")
+        self._s0 = int(self.model.actuator_actadr[ids.act[0]])
         self._any_stopped = False
         self._run = np.ones(nsim, dtype=np.bool_)
         self.leg_hook = None
@@ -451,8 +596,8 @@ class PlatformBatch:
         :mod:`rths3d.transfer.legs`): ``hook(L)`` writes into L (K, 6) the leg lengths (m) to
         command for :attr:`poses` — the inverse kinematics (same anchors ``_b``, ``_p``,
         ``_hh``) compensated per leg — before the command limits are checked and the
-        set-points written (allocation-free: it runs every step). None: the inverse
-        kinematics of the poses."""
+        set-points pass the set-point effects (allocation-free: it runs every step). None:
+        the inverse kinematics of the poses."""
         self._all = np.arange(nsim)
         self._wrows: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self.stopped = np.zeros(nsim, dtype=bool)
@@ -460,15 +605,20 @@ class PlatformBatch:
         self.stops: list[SafetyStop | None] = [None] * nsim
         """The stop of each frozen test (None while it runs)."""
         self.stop_time = np.full(nsim, np.nan)
+        self.rest_pose = np.zeros((nsim, 6))
+        """Plate pose at measured rest after settling (K, 6): the zero of ``z_meas``."""
+        self.rest_leg_forces = np.zeros((nsim, 6))
+        """Leg forces at measured rest (K, 6), N: their tare."""
         self.k = 0
         self.reset()
 
     def reset(self, set_const: bool = False) -> None:
-        """All tests to home with gravity compensation; clears stop flags; ``t = 0``.
+        """All tests to home with gravity compensation (of the nominal model), settle, take
+        zero and tare at measured rest; clears stop flags; ``t = 0``.
 
         ``set_const=True`` first recomputes MuJoCo's derived constants per test (needed after
         changing masses or inertias, e.g. ``batch.batch.body("payload").mass = m[:, None]``);
-        with ``variants`` it recomputes them on each test's own model (``batch.batch.models``).
+        with per-test models it recomputes them on each test's own model.
         """
         if set_const:
             models = self.batch.models
@@ -481,28 +631,31 @@ class PlatformBatch:
                     mujoco.mj_setConst(mk, mujoco.MjData(mk))
                 self.batch.set_models(models)
         m = self.model
-        cfg = self.config
         offs = np.zeros((self.nsim, 6))
-        pre = np.zeros((self.nsim, 6))
         d = mujoco.MjData(m)
         state_fields = {}
         statics = []
+        nominal_static: dict[int, StaticState] = {}
         for k in range(self.nsim):
             mk = self.batch.get_model(k)
             mujoco.mj_resetData(mk, d)
             st = static_state(self._cfgs[k], mk, d, self.ids)
             statics.append(st)
+            nom = self._nominal[k]
+            if nom is not None and nom is not mk:
+                if id(nom) not in nominal_static:
+                    dn = mujoco.MjData(nom)
+                    nominal_static[id(nom)] = static_state(self._cfgs[k], nom, dn)
+                    mujoco.mj_resetData(mk, d)
+                comp = nominal_static[id(nom)]
+            else:
+                comp = st
             if self._cfgs[k].actuator.gravity_comp:
-                offs[k] = st.offsets
-            pre[k] = st.preload
-            d.ctrl[self.ids.act] = offs[k]
-            for i, a in enumerate(self.ids.act):
-                adr = mk.actuator_actadr[a]
-                if adr >= 0:
-                    d.act[adr] = offs[k, i]
-                if mk.actuator_history[a, 0] > 0:
-                    n = int(mk.actuator_history[a, 0])
-                    mujoco.mj_initCtrlHistory(mk, d, int(a), None, np.full((n, 1), offs[k, i]))
+                offs[k] = comp.offsets * self._gscale[k]
+            c0 = offs[k] + self._bias[k]
+            d.ctrl[self.ids.act] = 0.0
+            d.act[mk.actuator_actadr[self.ids.act]] = c0
+            mujoco.mj_forward(mk, d)
             for name in ("qpos", "qvel", "act", "ctrl", "history"):
                 arr = getattr(d, name)
                 if arr.size:
@@ -514,7 +667,10 @@ class PlatformBatch:
         for name, arr in state_fields.items():
             self.batch.bind(name)[:] = arr
         self._off = offs
-        self._pre = pre
+        self._cprev[:] = offs + self._bias
+        self._cnew[:] = self._cprev
+        self._sp[:] = 0.0
+        self.setpoint_chain.reset()
         self._Lprev = np.tile(self._home, (self.nsim, 1))
         self.poses[:] = 0.0
         self.stopped[:] = False
@@ -523,15 +679,30 @@ class PlatformBatch:
         self.reasons = [""] * self.nsim
         self.stops = [None] * self.nsim
         self.stop_time[:] = np.nan
-        nset = int(round(self.settle / cfg.timestep))
-        self._t0 = nset * cfg.timestep
+        nset = int(round(self.settle / self.config.timestep))
+        self._t0 = nset * self.config.timestep
         if nset:
             self.batch.step(nstep=nset)
-        else:  # forces and sensors of the compensated state (a step computes them)
-            self.batch.forward()
+        # channels of the settled state (a step leaves them at the start of its last substep)
+        self.batch.forward()
+        self._read_fts()
         self.k = 0
         self._check_status(settling=True)
+        # zero and tare at measured rest, as a bench does
+        self._pre = np.zeros((self.nsim, 6))
+        self.rest_pose[:] = 0.0
+        world_wrench(self._fts_R, self._fts_force, self._fts_torque, self._pre,
+                     np.arange(6, dtype=np.int64), self._pre)
+        self.rest_pose[:] = plate_pose(self.plate_qpos, self._hh)
+        self.rest_leg_forces[:] = self._legs_f
         self._fresh = not self._any_stopped
+
+    def _read_fts(self) -> None:
+        if self._fts_C is not None:
+            fts_distort(self._raw_force, self._raw_torque, self._fts_C, self._fts_b,
+                        self._fts_force, self._fts_torque)
+        else:
+            copy_fts(self._raw_force, self._raw_torque, self.fts_reading)
 
     def ensure_reset(self) -> None:
         """:meth:`reset`, unless the platform is still as its last reset left it (not
@@ -583,51 +754,54 @@ class PlatformBatch:
 
     def step_interface(self, u: np.ndarray, idx: np.ndarray, z: np.ndarray,
                        f: np.ndarray) -> None:
-        """One interface step commanding the DOFs ``idx`` to ``u`` (the others at home),
-        then the achieved DOFs into ``z`` and their interface wrench into ``f`` (the loop's
-        hot path: one compiled call before the MuJoCo step and one after; after a MuJoCo
-        step every further call meets cold caches, so they are few)."""
-        self._advance(idx, z, f, u)
+        """One interface step commanding the DOFs ``idx`` to ``u`` (K, len(idx); the others
+        keep their commanded pose), then the achieved DOFs into ``z`` and their interface
+        wrench into ``f`` (the loop's hot path)."""
+        interface_command(u, idx, self.poses)
+        self._advance()
+        self.read(idx, z, f)
 
-    def _advance(self, idx: np.ndarray | None = None, z: np.ndarray | None = None,
-                 f: np.ndarray | None = None, u: np.ndarray | None = None) -> None:
-        """One interface step from the commanded poses in :attr:`poses` (the hot path); with
-        ``idx``, the interface DOFs set to ``u`` first and read into ``z`` and ``f`` after."""
+    def _advance(self, sample: bool = True) -> None:
+        """One interface step from the commanded poses in :attr:`poses` (the hot path).
+
+        ``sample=False`` skips the end-of-step ``mj_forward``: the sensors and actuator forces
+        then still describe the start of the step. Since the servo's set-point is a state
+        (its activation) and the control only its rate, the next step's own evaluation at
+        its start gives exactly this step's end-of-step sample: an open-loop replay reads
+        them one step later instead of paying a second evaluation per step."""
         self._fresh = False
-        if self.leg_hook is not None:
-            if u is not None:
-                interface_command(u, idx, self.poses)
+        sp = self._sp
+        ik = self.leg_hook is None
+        if not ik:
             # per-leg compensation: the hook writes the lengths to command into _L (from the
             # poses, with this platform's anchors); the call below checks and writes those
             self.leg_hook(self._L)
-            bad = leg_setpoints(self.poses, self._b, self._p, self._hh, self._home,
-                                self._off, self._ffg, self._Lprev, self._L, self._ctrl,
-                                self._a0, self._half, self._vdt, self._run, False)
-        elif u is not None:
-            bad = command_legs(u, idx, self.poses, self._b, self._p, self._hh, self._home,
-                               self._off, self._ffg, self._Lprev, self._L, self._ctrl, self._a0,
-                               self._half, self._vdt, self._run)
-        else:
-            bad = leg_setpoints(self.poses, self._b, self._p, self._hh, self._home, self._off,
-                                self._ffg, self._Lprev, self._L, self._ctrl, self._a0,
-                                self._half, self._vdt, self._run, True)
-        if bad:
+        if leg_setpoints(self.poses, self._b, self._p, self._hh, self._home, self._zero6,
+                         self._ffg, self._Lprev, self._L, sp, 0, self._half, self._vdt,
+                         self._run, ik):
             self._command_limits(self._L - self._home, self._L - self._Lprev)
-        if not self._any_stopped:
+        y = sp if self.setpoint_chain.empty else self.setpoint_chain(sp)
+        run = self._run
+        ids = None if not self._any_stopped else self._all[run]
+        if ids is not None and not run.any():
+            self.k += 1
+            return
+        ramp_ctrl(y, self._off, self._bias, self._cprev, self._cnew, self._ctrl, self._a0,
+                  self._inv_dt, run)
+        if ids is None:
             self.batch.step(nstep=self._nsub)
-        elif self._run.any():
+        else:
             # stopped tests hold their last set-point and are not stepped any more
-            self.batch.step(nstep=self._nsub, ids=self._all[self._run])
+            self.batch.step(nstep=self._nsub, ids=ids)
+        end_ramp(self._cnew, self._cprev, self._act, self._s0, run)
+        # every channel at t_{k+1} from one state
+        if sample:
+            self.batch.forward()
+            self._read_fts()
         self.k += 1
         self._check_status()
-        if idx is not None:
-            over = after_step(self._legs_q, self._legs_v, self._legs_f, self._half, self._vmax,
-                              self._fmax, self._run, self.plate_qpos, self._hh, idx,
-                              self._fts_R, self._fts_force, self._fts_torque, self._pre, z, f)
-        else:
-            over = measured_over(self._legs_q, self._legs_v, self._legs_f, self._half,
-                                 self._vmax, self._fmax, self._run)
-        if over:
+        if measured_over(self._legs_q, self._legs_v, self._legs_f, self._half, self._vmax,
+                         self._fmax, self._run):
             self._measured_limits(self._legs_q, self._legs_v, self._legs_f)
 
     def _command_limits(self, s: np.ndarray, dL: np.ndarray) -> None:
@@ -668,8 +842,9 @@ class PlatformBatch:
 
     @property
     def leg_lengths(self) -> np.ndarray:
-        """Achieved leg lengths (K, 6), m."""
-        return self._home + self._qpos[:, self.ids.slide_qpos]
+        """Leg lengths the encoders read (K, 6), m: home length + piston extension − the
+        set-point bias the encoders do not see."""
+        return self._home + self._qpos[:, self.ids.slide_qpos] - self._bias
 
     @property
     def leg_commands(self) -> np.ndarray:
@@ -684,7 +859,7 @@ class PlatformBatch:
     @property
     def wrench(self) -> np.ndarray:
         """Raw FTS wrench (K, 6) in the site frame (N, N·m); see :attr:`PlatformSim.wrench`."""
-        return np.concatenate([self._fts_force, self._fts_torque], axis=1)
+        return self.fts_reading.copy()
 
     def _rows(self, rows: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
         key = tuple(int(r) for r in rows)
@@ -701,7 +876,15 @@ class PlatformBatch:
         """Achieved interface DOFs ``idx`` into ``z`` and their measured interface wrench
         into ``f`` ((K, len(idx)) each), in one compiled call."""
         read_interface(self.plate_qpos, self._hh, idx, self._fts_R, self._fts_force,
-                       self._fts_torque, self._pre, z, f)
+                       self._fts_torque, self._pre, z, f, self.rest_pose)
+
+    def read_start(self, idx: np.ndarray, z: np.ndarray, f: np.ndarray) -> None:
+        """After ``_advance(sample=False)``: the achieved interface DOFs now, and the
+        interface wrench of the previous step's end-of-step sample (from the sensors, which
+        the step evaluated at its start)."""
+        quat_rows(self._fts_quat, self._R_start)
+        read_interface(self.plate_qpos, self._hh, idx, self._R_start, self._fts_force,
+                       self._fts_torque, self._pre, z, f, self.rest_pose)
 
     def interface_force(self, rows: Sequence[int]) -> np.ndarray:
         """Rows ``rows`` (0–2 force, 3–5 torque) of :attr:`interface_wrench`, (K, len(rows)),

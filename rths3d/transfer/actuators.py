@@ -2,7 +2,7 @@
 discretisation, and (K, n_if) callables over the effect blocks.
 
 The per-step physics lives in :mod:`rths3d.effects.blocks` (delay line, LTI state space,
-lag, gain, offset, noise) and :mod:`rths3d.transfer.compensators`; this module holds the
+lag, gain, offset, noise) and :mod:`rths3d.compensation`; this module holds the
 platform's identified heave model G(s) (:func:`default_transfer_function`,
 :func:`follow_servo_settings`, :func:`default_transport_delay`), its zero-order-hold
 discretisation through python-control (:func:`discretise_tf`), and small callables over the
@@ -94,9 +94,9 @@ def follow_servo_settings(num: Sequence[float], den: Sequence[float], delay: flo
     (``timeconst`` τ, s) and, without velocity feed-forward, the servo lag 1/((kv/kp)s + 1)
     (``kp`` N/m, ``kv`` N·s/m). The identification run's factors are divided out and the
     scene's multiplied in; with the identification's settings nothing changes. MuJoCo's
-    set-point filter is discrete, (1 − p)/(z − p) with p = e^(−ΔT/τ), and delays by
-    ΔT/(1 − p) ≈ τ + ΔT/2: it enters as 1/(τ_e s + 1) with τ_e = ΔT/(1 − p) − ΔT/2, and its
-    extra half step ΔT/2 leaves the delay when the scene has no filter. A model left with a
+    set-point lag is the block α/(1 − (1 − α)z⁻¹), α = 1 − p, p = e^(−ΔT/τ), which delays by
+    ΔT/(1 − p) − ΔT ≈ τ − ΔT/2: it enters as 1/(τ_e s + 1) with τ_e = ΔT/(1 − p) − ΔT/2, and
+    its half-step lead ΔT/2 leaves the delay when the scene has no lag. A model left with a
     feedthrough D (no filter, feed-forward on) reads D·z at the end of the held step where the
     platform's servo follows the set-point within it: the delay shortens by a further D·ΔT/2.
     This matches the platform's 1 Hz delay to ≤ 0.1 ms (``tests/test_transfer.py``). The
@@ -121,7 +121,11 @@ def follow_servo_settings(num: Sequence[float], den: Sequence[float], delay: flo
     if c_num.size == c_den.size and np.allclose(c_num, c_den, rtol=1e-12, atol=0.0):
         return list(num), list(den), delay
     num2, den2 = np.polymul(num, c_num), np.polymul(den, c_den)
+    # the platform's set-point lag is a block at the interface rate, α/(1 − (1 − α)z⁻¹): a
+    # continuous lag τ_e followed by a lead of ΔT/2, which leaves with the lag
     if ident["timeconst"] > 0 and not timeconst > 0:
+        delay += 0.5 * dt
+    elif timeconst > 0 and not ident["timeconst"] > 0:
         delay -= 0.5 * dt
     if num2.size == den2.size:
         delay -= 0.5 * dt * num2[0] / den2[0]
@@ -248,7 +252,7 @@ class PerTestLTIActuator(_Blocks):
 class Compensator:
     """Delay compensation of a (K, n) command: ``velocity`` z + τ_c ż (τ_c one or per test),
     ``polynomial`` (Lagrange extrapolation of ``order``), ``none``
-    (:mod:`rths3d.transfer.compensators`)."""
+    (:mod:`rths3d.compensation`)."""
 
     def __init__(self, K: int, n: int, kind: str, tau: float | Sequence[float], dt: float,
                  order: int = 2):

@@ -34,8 +34,8 @@ from ..config import Scene
 from ..errors import ConfigError
 
 __all__ = ["TRANSFERS", "CompiledTransfer", "RecordSignal", "TransferSystem", "batch_key",
-           "build_transfer", "register_transfer", "sensor_key", "setting", "transfer_class",
-           "transfer_kinds"]
+           "build_transfer", "effect_labels", "effect_on", "register_transfer", "sensor_key",
+           "setting", "transfer_class", "transfer_kinds"]
 
 
 @dataclass(frozen=True)
@@ -142,13 +142,28 @@ def setting(settings: Mapping[str, Any], key: str, default: float) -> float:
     return float(v)
 
 
+def effect_labels(settings: Mapping[str, Any]) -> list[tuple[str, str, float]]:
+    """The bench effects of flat settings (``effect.<label>`` keys): (name, label, value)."""
+    return [(k[len("effect."):].split(".")[0], k[len("effect."):], float(v))
+            for k, v in settings.items() if k.startswith("effect.")]
+
+
+def effect_on(settings: Mapping[str, Any], name: str) -> bool:
+    """Whether the effect ``name`` acts (anywhere, at a value other than its off value)."""
+    from ..effects import get_effect
+
+    return any(n == name and not get_effect(n).is_off(v)
+               for n, _, v in effect_labels(settings))
+
+
 def sensor_key(settings: Mapping[str, Any]) -> tuple:
     """The force sensor's structure (which of its effects act); their values and the noise
     seed are per test."""
     s = settings
-    return (s.get("sensor.kind", "ideal") == "first_order",
+    return (s.get("sensor.kind", "ideal") == "first_order", effect_on(s, "fts_lowpass"),
             setting(s, "sensor.gain", 1.0) != 1.0, setting(s, "sensor.offset", 0.0) != 0.0,
-            setting(s, "sensor.noise_std", 0.0) > 0.0, setting(s, "sensor.delay", 0.0) > 0.0)
+            setting(s, "sensor.noise_std", 0.0) > 0.0 or effect_on(s, "sensor_noise"),
+            setting(s, "sensor.delay", 0.0) > 0.0)
 
 
 def batch_key(settings: Mapping[str, Any] | Scene) -> tuple:

@@ -20,11 +20,35 @@ from ..compensation import BaseCompensator
 from ..config import Scene
 from ..effects.blocks import Chain
 from ..experiment import build_part_model, part_class
-from .base import CompiledTransfer, RecordSignal, sensor_key, setting
+from .base import CompiledTransfer, RecordSignal, effect_on, sensor_key, setting
 from .commands import compensation_record, compensator_key, compensator_of
 from .sensor import sensor_chain
 
 __all__ = ["ChainTransfer"]
+
+
+def _with_effects(scenes: Sequence[Scene], n: int, act: Chain, metas: list[dict[str, Any]]
+                  ) -> tuple[Chain, list[dict[str, Any]]]:
+    """The actuator chain followed by the bench effects that apply to a 1-D chain: the
+    transport ``delay`` and the ``actuator_lag`` of all legs act on every interface DOF (the
+    sensor effects are in the sensor chain); the others are listed in each test's metadata
+    as ``ignored_effects``."""
+    from ..effects import get_effect
+
+    K = len(scenes)
+    blocks = list(act.blocks)
+    for name in ("delay", "actuator_lag"):
+        vals = [sum(e.value for e in s.effects if e.name == name and e.leg < 0)
+                for s in scenes]
+        if any(v > 0 for v in vals):
+            blocks.append(get_effect(name).block(K, np.repeat(vals, n), scenes[0].dt))
+    out = []
+    for s, m in zip(scenes, metas, strict=True):
+        ign = [e.label for e in s.effects
+               if not (get_effect(e.name).lti and e.leg < 0) or e.name not in
+               ("delay", "actuator_lag", "fts_lowpass", "sensor_noise")]
+        out.append({**m, "ignored_effects": ign} if ign else m)
+    return (Chain(K, n, blocks) if len(blocks) != len(act.blocks) else act), out
 
 
 class ChainTransfer:
@@ -71,7 +95,8 @@ class ChainTransfer:
         actuators' settings (delay, model, servo gains, lag, feed-forward, compensation time)
         are per test; the platform's physics ``substeps`` keeps tests apart, as on the
         platform."""
-        return (setting(settings, "transfer.substeps", 1),)
+        return (setting(settings, "transfer.substeps", 1), effect_on(settings, "delay"),
+                effect_on(settings, "actuator_lag"))
 
     @classmethod
     def build(cls, scenes: Sequence[Scene], *, nthread: int = 0,
@@ -79,6 +104,7 @@ class ChainTransfer:
         base = scenes[0]
         n = len(base.dofs)
         act, metas = cls.actuator_chain(scenes, n)
+        act, metas = _with_effects(scenes, n, act, metas)
         comp = compensator_of(scenes, n, [m.get("predicted_delay", math.nan) for m in metas])
         part = build_part_model([s.experiment for s in scenes], base.dofs, base.dt,
                                 model=specimen, nthread=nthread)

@@ -1,4 +1,5 @@
-"""The MuJoCo Stewart platform as transfer system: the part rides on its FTS, K tests."""
+"""The MuJoCo Stewart platform as transfer system: the bench (:class:`rths3d.bench.Bench`)
+carrying the part on its FTS, K tests."""
 
 from __future__ import annotations
 
@@ -7,37 +8,57 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..config import Scene, TransferConfig
-from ..experiment import make_part, part_class
-from ..platform.model import ActuatorConfig, PlatformConfig, predicted_delay
-from ..platform.sim import PlatformBatch, plate_pose
+from ..bench import Bench, platform_batch
+from ..bench.base import platform_config
+from ..config import Scene
+from ..effects import WRENCH, get_effect, noise_sigma
+from ..effects.blocks import NoiseBlock
+from ..experiment import part_class
+from ..platform.model import predicted_delay
+from ..platform.sim import plate_pose
 from ..record import DOFS
-from .base import RecordSignal, register_transfer, sensor_key, setting
+from .base import RecordSignal, effect_labels, register_transfer, sensor_key, setting
 from .commands import compensation_record, compensator_key
 from .legs import platform_compensator
 from .sensor import sensor_chain
 
 __all__ = ["StewartTransfer", "platform_config"]
 
+LEGS = tuple(str(i) for i in range(6))
 
-def platform_config(scene: Scene, tr: TransferConfig | None = None) -> PlatformConfig:
-    """The platform configuration of a scene's leg-servo settings (``transfer.*``)."""
-    t = tr or scene.transfer
-    return PlatformConfig(actuator=ActuatorConfig(kp=t.kp, kv=t.kv, timeconst=t.timeconst,
-                                                  delay=t.delay, velocity_ff=t.velocity_ff),
-                          dt=scene.dt, substeps=t.substeps)
+
+def _noisy(convert, sigma: np.ndarray, seeds: Sequence[int]):
+    """A record-signal conversion followed by seeded white measurement noise (σ per column;
+    one generator per test, drawn in row order as blocks are written)."""
+    if not np.any(sigma > 0):
+        return convert
+    gens = [np.random.default_rng(int(s)) for s in seeds]
+
+    def conv(block: np.ndarray) -> np.ndarray:
+        out = np.array(convert(block) if convert is not None else block, dtype=float)
+        for k, g in enumerate(gens):
+            out[:, k, :] += g.standard_normal((out.shape[0], out.shape[2])) * sigma[k]
+        return out
+
+    return conv
 
 
 @register_transfer
 class StewartTransfer:
-    """The six-leg platform carrying the part on its FTS (:class:`PlatformBatch`).
+    """The six-leg platform carrying the part on its FTS: one :class:`~rths3d.bench.Bench`
+    per test, stepped by :func:`~rths3d.bench.platform_batch` (the diagnosis' replay steps
+    the same code).
 
-    Tests stepped together may differ in their leg-servo settings (kp, kv, velocity
-    feed-forward, the lag's time constant) and their part's parameters: each runs its own
-    compiled model of one structure. The actuator delay, whether the servo has a lag, the
-    physics substeps and the part's kind change the structure (:meth:`batch_key`). Adds the
-    record signals ``pose_cmd.*`` and ``pose_meas.*`` (plate pose commanded and achieved,
-    relative to home, m and rad). MuJoCo runs from Python: no compiled kernel.
+    Tests stepped together may differ in their leg-servo settings, their part's parameters
+    and their effects' values; which set-point, sensor and FTS effects act, the physics
+    substeps and the part's kind change the structure (:meth:`batch_key`). Record signals
+    (docs/records.md): ``pose_cmd.*`` and ``pose_meas.*`` (plate pose commanded and measured,
+    relative to the nominal home, m and rad; absolute, not re-zeroed), ``leg_len.<i>`` (the
+    leg encoders, m), ``leg_force.<i>`` (actuator forces tared at rest, N) and ``fts.<fx…tz>``
+    (the raw six-axis reading in the sensor frame, zeroed unloaded: it carries the payload's
+    weight, N and N·m). With the ``sensor_noise`` effect every measured channel carries
+    seeded white noise (``z_meas`` and ``f_meas`` inside the loop). MuJoCo runs from Python:
+    no compiled kernel.
     """
 
     kind: ClassVar[str] = "stewart"
@@ -49,22 +70,18 @@ class StewartTransfer:
         base = self.scenes[0]
         K = len(self.scenes)
         self.K, self.n_if = K, len(base.dofs)
-        cfg = platform_config(base)
-        self.config = cfg
-        g = cfg.geometry
-        site = (0.0, 0.0, g.home_height + g.fts_height)
-        variants = [(platform_config(s), make_part(s.experiment).payload_xml(),
-                     make_part(s.experiment).world_xml(site)) for s in self.scenes]
-        one = len(set(variants)) == 1
-        self.sim = PlatformBatch(cfg, nsim=K, nthread=nthread or 2, payload_xml=variants[0][1],
-                                 world_xml=variants[0][2], variants=None if one else variants)
+        self.benches = [Bench.from_scene(s) for s in self.scenes]
+        self.sim = platform_batch(self.benches, nthread=nthread or 2)
+        cfg = self.config = self.benches[0].platform
         self.idx = np.array([DOFS.index(d) for d in base.dofs], dtype=np.int64)
         # per interface DOF, or per leg through the platform's leg hook (transfer.compensate)
         self.compensator, comp_channels = platform_compensator(
-            self.scenes, self.sim, self.idx, [predicted_delay(v[0], 1.0) for v in variants])
+            self.scenes, self.sim, self.idx,
+            [predicted_delay(b.platform, 1.0) for b in self.benches])
         self.sensor = sensor_chain(self.scenes, self.n_if)
         self.pose_cmd = self.sim.poses
         self._f = np.zeros((K, self.n_if))
+        g = cfg.geometry
         self.home_height = float(g.home_height)
         self.plate_qpos = self.sim.plate_qpos
         """Live (K, 7) view of the plate's measured free-joint qpos (m, quaternion wxyz)."""
@@ -74,21 +91,47 @@ class StewartTransfer:
         self.reasons = [""] * K
         self.part_model = "mujoco"
         """The part rides on the platform in MuJoCo (the reference uses the MuJoCo part)."""
+        levels = np.array([b.noise_level() for b in self.benches])
+        seeds = [s.sensor.seed for s in self.scenes]
+        self._znoise = None
+        if np.any(levels > 0):
+            zs = np.concatenate([lv * np.array([noise_sigma(f"z_meas.{d}") for d in base.dofs])
+                                 for lv in levels])
+            self._znoise = NoiseBlock(K, self.n_if, zs, [s + 7919 for s in seeds])
+
+        def sig(name: str, labels: Sequence[str]) -> np.ndarray:
+            return levels[:, None] * np.array([noise_sigma(f"{name}.{c}") for c in labels])
+
         home = np.array([0.0, 0.0, self.home_height, 1.0, 0.0, 0.0, 0.0])
+        sim = self.sim
+        home_len = np.asarray(g.home_leg_lengths())
+        bias = sim._bias.copy()
+        rest = sim.rest_leg_forces
         self.signals = (
             RecordSignal("pose_cmd", DOFS, self.pose_cmd),
-            RecordSignal("pose_meas", DOFS, self.plate_qpos,
-                         lambda q: plate_pose(q, self.home_height), home),
+            RecordSignal("pose_meas", DOFS, self.plate_qpos, _noisy(
+                lambda q: plate_pose(q, self.home_height), sig("pose_meas", DOFS),
+                [s + 1 for s in seeds]), home),
+            RecordSignal("leg_len", LEGS, sim._legs_q, _noisy(
+                lambda q: q + (home_len - bias)[None], sig("leg_len", LEGS),
+                [s + 2 for s in seeds]), np.zeros(6)),
+            RecordSignal("leg_force", LEGS, sim._legs_f, _noisy(
+                lambda f: f - rest[None], sig("leg_force", LEGS), [s + 3 for s in seeds]),
+                None),
+            RecordSignal("fts", WRENCH, sim.fts_reading, _noisy(
+                None, sig("fts", WRENCH), [s + 4 for s in seeds]), None),
         )
+        self._rest_fts = sim.fts_reading
 
-        def meta_of(s: Scene, c: PlatformConfig) -> dict[str, Any]:
+        def meta_of(s: Scene, b: Bench) -> dict[str, Any]:
             t = s.transfer
-            return {"predicted_delay": predicted_delay(c, 1.0), "kp": t.kp, "kv": t.kv,
-                    "timeconst": t.timeconst, "actuator_delay": t.delay,
-                    "velocity_ff": t.velocity_ff, "substeps": t.substeps}
+            return {"predicted_delay": predicted_delay(b.platform, 1.0), "kp": t.kp,
+                    "kv": t.kv, "timeconst": t.timeconst, "actuator_delay": t.delay,
+                    "velocity_ff": t.velocity_ff, "substeps": t.substeps,
+                    "integrator": b.platform.integrator, "bench": b.label()}
 
-        self.metas = [meta_of(s, v[0]) for s, v in zip(self.scenes, variants, strict=True)]
-        """Per-test metadata (leg-servo settings and the delay they predict)."""
+        self.metas = [meta_of(s, b) for s, b in zip(self.scenes, self.benches, strict=True)]
+        """Per-test metadata (leg-servo settings, the delay they predict, the effects)."""
         self.signals += compensation_record(self.scenes, self.compensator, comp_channels,
                                             self.metas)
 
@@ -100,9 +143,16 @@ class StewartTransfer:
     @classmethod
     def batch_key(cls, settings: Mapping[str, Any]) -> Hashable:
         s = settings
-        return (compensator_key(s), setting(s, "transfer.delay", 0.0),
-                setting(s, "transfer.timeconst", 0.0) > 0, setting(s, "transfer.substeps", 1),
-                part_class(s.get("experiment.kind", "contact")).batch_key(s), sensor_key(s))
+        # per-test values (controller blocks), but numbers: a ConfigError names a bad one
+        for key in ("transfer.delay", "transfer.timeconst", "transfer.kp", "transfer.kv"):
+            setting(s, key, 0.0)
+        effects = sorted({name for name, _, v in effect_labels(s)
+                          if not get_effect(name).is_off(v) and
+                          (get_effect(name).stage in ("setpoint", "fts", "sensor", "noise")
+                           or name == "fixture_mass")})
+        return (compensator_key(s), setting(s, "transfer.substeps", 1),
+                part_class(s.get("experiment.kind", "contact")).batch_key(s), sensor_key(s),
+                tuple(effects))
 
     @property
     def model(self):
@@ -117,6 +167,8 @@ class StewartTransfer:
         self.sim.ensure_reset()
         self.compensator.reset()
         self.sensor.reset()
+        if self._znoise is not None:
+            self._znoise.reset()
         self.pose_cmd[:] = 0.0
         self.z_meas[:] = 0.0
         self.f_meas[:] = 0.0
@@ -132,6 +184,8 @@ class StewartTransfer:
         else:
             sim.step_interface(u, self.idx, self.z_meas, self._f)
             self.f_meas[:] = self.sensor(self._f)
+        if self._znoise is not None:
+            self.z_meas[:] = self._znoise(self.z_meas)
         if sim._any_stopped:
             self.stopped[:] = sim.stopped
             self.reasons = list(sim.reasons)

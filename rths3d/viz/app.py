@@ -26,6 +26,9 @@ from .panels import (
     coefficient_data,
     coefficient_unit,
     history_data,
+    leg_columns,
+    leg_data,
+    leg_residual_data,
     ssp_data,
     stride,
     window,
@@ -185,6 +188,10 @@ class Viewer:
         self._stop = threading.Event()
         self._lock = threading.RLock()
         self._last_i = -1
+        self._leg = 0
+        self.leg_dropdown = None
+        self.leg_plot = self.legres_plot = None
+        self._legs = None
         self._dirty = True
         self._last_measure = -math.inf
         self._wrench_max = (0.0, 0.0)
@@ -297,6 +304,7 @@ class Viewer:
         self._build_panels()
         self.comp_folder: Any = None
         self._build_compensator()
+        self._build_leg_panels()
         with gui.add_folder("Running measures"):
             self.measures = RunningMeasures(self.buffer.meta)
             self.measures_md = gui.add_markdown(self.measures.markdown(None))
@@ -389,6 +397,38 @@ class Viewer:
             if self.coef_plot is not None:
                 self.coef_plot.remove()
             self._build_coef_plot()
+
+    def _build_leg_panels(self) -> None:
+        """Measurement and model leg by leg (a diagnosis replay with ``model.leg_force.*``):
+        one leg's force, measured and model, and every leg's residual in noise units."""
+        self.leg_plot = self.legres_plot = None
+        self._legs = leg_columns(self.buffer.index)
+        if self._legs is None:
+            return
+        gui = self.server.gui
+        empty = np.zeros(2)
+        with gui.add_folder("Legs: measurement and model"):
+            self.leg_dropdown = gui.add_dropdown("leg", options=[str(i) for i in range(6)],
+                                                 initial_value=str(self._leg))
+            self.leg_dropdown.on_update(self._on_leg)
+            series = [{"label": "t (s)"},
+                      {"label": "measured (N)", "stroke": "#1f77b4", "width": 1.5},
+                      {"label": "model (N)", "stroke": "#ff7f0e", "width": 1.5, "dash": [6, 3]}]
+            self.leg_plot = gui.add_uplot(
+                data=tuple(empty for _ in series), series=tuple(series),
+                title="leg forces of the chosen leg: measured and model (N)",
+                scales={"x": {"time": False}}, axes=({}, {"size": 64}), aspect=2.4)
+            colours = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b")
+            rseries = [{"label": "t (s)"}] + [
+                {"label": f"leg {i}", "stroke": c, "width": 1} for i, c in enumerate(colours)]
+            self.legres_plot = gui.add_uplot(
+                data=tuple(empty for _ in rseries), series=tuple(rseries),
+                title="residual per leg (leg force, noise units)",
+                scales={"x": {"time": False}}, axes=({}, {"size": 64}), aspect=2.4)
+
+    def _on_leg(self, _: Any) -> None:
+        with self._lock:
+            self._leg = int(self.leg_dropdown.value)
             self._dirty = True
 
     def _build_run_controls(self) -> None:
@@ -545,6 +585,11 @@ class Viewer:
                 if self.coef_plot is not None:
                     self.coef_plot.data = coefficient_data(data, ch.t, self._coefs[self.coef],
                                                            rows)
+                if self.leg_plot is not None:
+                    meas, model, res = self._legs
+                    self.leg_plot.data = leg_data(data, ch.t, int(meas[self._leg]),
+                                                  int(model[self._leg]), rows)
+                    self.legres_plot.data = leg_residual_data(data, ch.t, res, rows)
                 if not self.live:
                     self.time_slider.value = float(row[0])
             now = time.monotonic()

@@ -82,3 +82,26 @@ def coefficient_data(data: np.ndarray, t_col: int, cols: list[tuple[str, int]], 
                      ) -> tuple[np.ndarray, ...]:
     """One coefficient over ``rows`` for each channel: ``(t, c_channel0, c_channel1, …)``."""
     return (_col(data, rows, t_col), *(_col(data, rows, c) for _, c in cols))
+
+
+def leg_columns(index: dict[str, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Columns of a diagnosis replay's legs: measured ``leg_force.<i>``, ``model.leg_force.<i>``
+    and the residual ``residual.leg_force.<i>`` (noise units), six each; None without a model.
+    """
+    cols = [[index.get(f"{p}leg_force.{i}", -1) for i in range(6)]
+            for p in ("", "model.", "residual.")]
+    if min(cols[0]) < 0 or min(cols[1]) < 0:
+        return None
+    return tuple(np.array(c) for c in cols)  # type: ignore[return-value]
+
+
+def leg_data(data: np.ndarray, t_col: int, meas: int, model: int, rows: slice
+             ) -> tuple[np.ndarray, ...]:
+    """One leg's force, measured and model, over ``rows``: ``(t, F_meas, F_model)`` (s, N)."""
+    return (_col(data, rows, t_col), _col(data, rows, meas), _col(data, rows, model))
+
+
+def leg_residual_data(data: np.ndarray, t_col: int, res: np.ndarray, rows: slice
+                      ) -> tuple[np.ndarray, ...]:
+    """The six legs' force residuals (noise units) over ``rows``: ``(t, r_0, …, r_5)``."""
+    return (_col(data, rows, t_col), *(_col(data, rows, int(c)) for c in res))

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import os
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 CHROMIUM = "/usr/bin/chromium"
@@ -31,6 +31,8 @@ class PageCheck:
     """Standard deviation of the 3-D canvas pixels (0–255 grey levels; 0 = blank)."""
     canvas_colours: int
     """Distinct colours in the 3-D canvas (a blank canvas has one)."""
+    texts: dict[str, bool] = field(default_factory=dict)
+    """Whether each of the ``expect`` texts was on the page."""
 
 
 def chromium_path() -> str | None:
@@ -57,7 +59,8 @@ def require_browser() -> str:
 
 
 def screenshot(url: str, path: str | os.PathLike, *, width: int = 1400, height: int = 900,
-               settle: float = 6.0, timeout: float = 60.0) -> PageCheck:
+               settle: float = 6.0, timeout: float = 60.0,
+               expect: tuple[str, ...] = ()) -> PageCheck:
     """Open ``url`` in headless Chromium, wait for the view to connect and draw, save a PNG.
 
     ``settle`` (s) is the time given to software WebGL to render after the connection. The
@@ -84,6 +87,7 @@ def screenshot(url: str, path: str | os.PathLike, *, width: int = 1400, height: 
             page.wait_for_timeout(300)
             ssp = page.get_by_text("SSP: z' against z").count() > 0
             connected = page.get_by_text("Connected").count() > 0
+            texts = {x: page.get_by_text(x).count() > 0 for x in expect}
             page.screenshot(path=str(path))
             box = page.locator("canvas").first.bounding_box()
         finally:
@@ -94,4 +98,5 @@ def screenshot(url: str, path: str | os.PathLike, *, width: int = 1400, height: 
         img = img[y0:y0 + int(box["height"]), x0:x0 + int(box["width"])]
     flat = img.reshape(-1, 3)
     return PageCheck(connected, webgl_ok, ssp, float(img.std()),
-                     int(np.unique(flat[:: max(1, flat.shape[0] // 20000)], axis=0).shape[0]))
+                     int(np.unique(flat[:: max(1, flat.shape[0] // 20000)], axis=0).shape[0]),
+                     texts)
