@@ -186,6 +186,12 @@ class SafetyLimits:
     over windows of ``growth_window`` (s) grew by more than ``growth`` (factor per window) in
     ``growth_windows`` consecutive windows, each peak above 2 % of the FTS range
     (``growth_windows = 0`` switches this off).
+
+    The online fidelity monitor (:mod:`rths3d.surrogate.monitor`): ``fidelity_limit`` (m or
+    rad; 0: off) bounds the running RMS (0.25 s) of the estimated error ê = z' − ẑ^r of
+    every interface DOF, ẑ^r the surrogate reference identified from the test's first
+    ``fidelity_warmup`` seconds (s); ``fidelity_action`` ``"warn"`` (the record's metadata
+    names the crossing) or ``"stop"`` (a safety stop).
     """
 
     stroke: float = 0.04
@@ -197,6 +203,9 @@ class SafetyLimits:
     growth: float = 1.25
     growth_window: float = 0.5
     growth_windows: int = 4
+    fidelity_limit: float = 0.0
+    fidelity_action: str = "warn"
+    fidelity_warmup: float = 1.0
 
 
 SafetyConfig = SafetyLimits

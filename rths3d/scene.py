@@ -324,6 +324,14 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
                   "growth": {"lo": 1.0, "lo_open": True}})
     if saf.growth_windows < 0:
         raise ConfigError("safety.growth_windows", saf.growth_windows, "must be >= 0 (0: off)")
+    if not saf.fidelity_limit >= 0:
+        raise ConfigError("safety.fidelity_limit", saf.fidelity_limit,
+                          "must be >= 0 m or rad (0: off)")
+    _choice("safety.fidelity_action", saf.fidelity_action, ("warn", "stop"))
+    if not saf.fidelity_warmup > 0 or (saf.fidelity_limit > 0
+                                        and not saf.fidelity_warmup < duration):
+        raise ConfigError("safety.fidelity_warmup", saf.fidelity_warmup,
+                          f"must be > 0 s and shorter than the test ({duration:g} s)")
     _check_reach(saf, exc, exp)
     if num.integrator == "central_difference":
         _check_coupled_stability(num, exp, dofs, dt)

@@ -1,0 +1,199 @@
+"""The online fidelity monitor: warn or stop a running test whose estimated error grows.
+
+A scene asks for it in ``[safety]``: ``fidelity_limit`` (m or rad, > 0; 0 switches it off),
+``fidelity_action`` (``"warn"`` or ``"stop"``) and ``fidelity_warmup`` (s). During the first
+``fidelity_warmup`` seconds the test runs unwatched; at their end the experimental part is
+identified from those samples of the test's own record (z', F'_m; :func:`.identify`, the
+model classes of the surrogate reference), and from then on the surrogate reference ẑ^r is
+stepped beside the test (:class:`.OnlineReference`: the identified part coupled exactly to
+the numerical substructure, started at rest and caught up over the warm-up samples once).
+The running RMS of ê = z' − ẑ^r over the surrogate's window (0.25 s) is compared with the
+limit on every interface DOF.
+
+The loop calls :meth:`FidelityMonitor.update` after every block of steps (50 ms of test
+time when the monitor is on), so a crossing is acted on at the end of the block it happened
+in: with ``"stop"`` the test stops there, as any safety stop, with its partial record and the
+reason (the time of the crossing, the DOF, the estimate and the limit); with ``"warn"`` it
+runs on and its record's metadata ``fidelity`` names the first crossing. The part model is
+identified from the warm-up only: a part whose behaviour changes later (a contact first
+reached after the warm-up) is extrapolated, which the estimate then reports as error —
+choose a warm-up that excites the part.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from ..config import Scene
+from .estimator import identify
+from .online import OnlineReference
+from .running import WINDOW
+
+
+@njit(cache=True, nogil=True)
+def _track(rms, peak, lim):  # pragma: no cover - jit
+    """Peak of the running RMS (in place); whether any entry is above its limit."""
+    over = False
+    for r in range(rms.shape[0]):
+        for j in range(rms.shape[1]):
+            v = rms[r, j]
+            if v > peak[r, j]:
+                peak[r, j] = v
+            if v > lim[r, j]:
+                over = True
+    return over
+
+
+ACTIONS = ("warn", "stop")
+"""What the monitor does when the running estimate crosses ``safety.fidelity_limit``."""
+
+BLOCK = 0.05
+"""Test time (s) between two monitor updates: the latency of a warning or stop."""
+
+
+class FidelityMonitor:
+    """Online fidelity monitor of K tests stepped together (see the module docstring).
+
+    ``FidelityMonitor(scenes, num)``: ``num`` the loop's
+    :class:`~rths3d.numerical.LinearSubstructure` (its M, C, K, Γ and load p of every
+    test). ``update(data, ci, n, stop)`` after the loop recorded rows 0…n of ``data``
+    (N+1, K, columns; ``ci`` the column index); ``stop(k, reason, row)`` stops test k.
+    ``summary(k)``: what the record's metadata ``fidelity`` holds.
+    """
+
+    def __init__(self, scenes: Sequence[Scene], num: Any):
+        self.scenes = list(scenes)
+        base = self.scenes[0]
+        self.dt, self.dofs = base.dt, tuple(base.dofs)
+        self.limit = np.array([s.safety.fidelity_limit for s in self.scenes], dtype=float)
+        self.watch = np.flatnonzero(self.limit > 0)
+        self.enabled = self.watch.size > 0
+        self.warmup_rows = max(int(round(base.safety.fidelity_warmup / self.dt)), 1)
+        self.window_rows = max(int(round(WINDOW / self.dt)), 1)
+        self.every = max(int(round(BLOCK / self.dt)), 1)
+        self.num = num
+        self.online: OnlineReference | None = None
+        self.done = 0  # rows the online reference has reached
+        self.models: list[str] = [""] * len(self.scenes)
+        self.validation = np.full(len(self.scenes), np.nan)
+        self.first: list[dict[str, float | str] | None] = [None] * len(self.scenes)
+        self.peak = np.zeros((len(self.scenes), len(self.dofs)))
+        self.failed: list[str] = [""] * len(self.scenes)
+        from ..numerical import LinearSubstructure
+
+        if self.enabled and type(num) is not LinearSubstructure:
+            # ẑ^r needs the substructure's exact discretisation: M, C, K and the load
+            for k in self.watch:
+                self.failed[k] = "the monitor needs a linear numerical substructure"
+            self.enabled = False
+
+    # ------------------------------------------------------------------ stepping
+    def update(self, data: np.ndarray, ci: dict[str, int], n: int, stop) -> None:
+        """Rows 0…n of ``data`` are recorded: identify after the warm-up, then step ẑ^r to
+        row n and act on any crossing."""
+        if not self.enabled or n < self.warmup_rows:
+            return
+        c_z, c_f = ci[f"z_meas.{self.dofs[0]}"], ci[f"f_meas.{self.dofs[0]}"]
+        d = len(self.dofs)
+        if self.online is None:
+            self._identify(data[: n + 1, :, c_z:c_z + d], data[: n + 1, :, c_f:c_f + d])
+            if self.online is None:
+                return
+        rows = self.watch
+        on = self.online
+        for m in range(self.done, n):
+            rms = on.update(m, data[m + 1, rows, c_z:c_z + d])
+            if m + 1 < self.warmup_rows:
+                continue  # the catch-up over the warm-up: a test is judged after it
+            if _track(rms, self._peak, self._lim):
+                self._cross(rms > self._lim, rms, m + 1, n, stop)
+        self.done = n
+
+    def _identify(self, z: np.ndarray, f: np.ndarray) -> None:
+        """The part of every watched test from its warm-up samples; the online reference."""
+        from ..numerical import LinearSubstructure
+
+        models = []
+        for k in self.watch:
+            ident = identify(z[:, k, :], f[:, k, :])
+            # the online coupling needs a switch fixed at the start of the step: the best
+            # candidate that has one (a linear model always does)
+            pick = next((ident.candidates[i] for i in ident.order
+                         if ident.candidates[i].switch_.lagged
+                         or not np.isfinite(ident.candidates[i].switch_.h)), None)
+            if pick is None:
+                self.failed[k] = "no identified part model can be stepped online"
+                models.append(None)
+                continue
+            self.models[k] = pick.label
+            self.validation[k] = float(ident.scores[ident.candidates.index(pick)])
+            models.append(pick)
+        keep = [i for i, m in enumerate(models) if m is not None]
+        if not keep:
+            self.enabled = False
+            return
+        self.watch = self.watch[keep]
+        num = self.num
+        rows = self.watch
+
+        def sel(a: np.ndarray) -> np.ndarray:
+            a = np.asarray(a)
+            return a[rows] if a.ndim == 3 and a.shape[0] == len(self.scenes) else \
+                np.broadcast_to(a, (len(rows),) + a.shape[-2:]).copy()
+
+        sub = LinearSubstructure(sel(num.M), sel(num.C), sel(num.Kmat), num.gamma,
+                                 np.asarray(num.p)[rows], self.dt, "exact")
+        self.online = OnlineReference(sub, [models[i] for i in keep], self.window_rows)
+        self.done = 0
+        # per-step buffers of the watched tests: no allocation per step
+        self._peak = np.zeros((len(rows), len(self.dofs)))
+        self._lim = np.ascontiguousarray(
+            np.repeat(self.limit[rows, None], len(self.dofs), axis=1))
+
+    def _cross(self, over: np.ndarray, rms: np.ndarray, row: int, n: int, stop) -> None:
+        for r, k in enumerate(self.watch):
+            if not over[r].any() or self.first[k] is not None:
+                continue
+            j = int(np.argmax(rms[r] / self.limit[k]))
+            unit = "rad" if self.dofs[j].startswith("r") else "m"
+            self.first[k] = {"t": row * self.dt, "dof": self.dofs[j],
+                             "estimate": float(rms[r, j])}
+            if self.scenes[k].safety.fidelity_action == "stop":
+                stop(int(k), f"fidelity estimate: running RMS of ê ({self.dofs[j]}) "
+                     f"{rms[r, j]:.4g} {unit} exceeded safety.fidelity_limit = "
+                     f"{self.limit[k]:g} {unit} at t = {row * self.dt:.3f} s", n)
+
+    # ------------------------------------------------------------------ results
+    def summary(self, k: int) -> dict[str, Any] | None:
+        """The record's metadata ``fidelity`` of test k (None: not watched)."""
+        if self.limit[k] <= 0:
+            return None
+        if self.online is not None and k in self.watch:
+            self.peak[k] = self._peak[int(np.flatnonzero(self.watch == k)[0])]
+        s = self.scenes[k].safety
+        out: dict[str, Any] = {"limit": float(self.limit[k]), "action": s.fidelity_action,
+                               "warmup": float(s.fidelity_warmup), "window": WINDOW,
+                               "model": self.models[k] or None,
+                               "validation": float(self.validation[k]),
+                               "peak": [float(v) for v in self.peak[k]],
+                               "peak_after": float(s.fidelity_warmup),
+                               "crossed": self.first[k]}
+        if self.failed[k] or self.online is None:
+            out["error"] = self.failed[k] or (
+                "the test ended before the warm-up" if self.online is None else "")
+        return out
+
+
+def monitor_block(scenes: Sequence[Scene]) -> int | None:
+    """Steps between two monitor updates, or None when no test asks for the monitor."""
+    if not any(s.safety.fidelity_limit > 0 for s in scenes):
+        return None
+    return max(int(round(BLOCK / scenes[0].dt)), 1)
+
+
+__all__ = ["ACTIONS", "BLOCK", "FidelityMonitor", "monitor_block"]
+
