@@ -243,6 +243,18 @@ def test_online_reference_equals_the_exact_coupling(contact_record, peak_bytes) 
     # the online window starts at sample 1 (sample 0 is the rest state, ê = 0)
     np.testing.assert_allclose(rms[1:], running_rms(z[1:] - zo[1:], contact_record.dt),
                                rtol=1e-9, atol=1e-15)
+    # the monitor's block update: the same running RMS, its peak and first crossing
+    blk = OnlineReference(LinearSubstructure(M, C, K, G, p, contact_record.dt, "exact"),
+                          [model], 250)
+    peak, lim = np.zeros((1, 1)), np.full((1, 1), 0.5 * rms.max())
+    first, fdof, fval = np.full(1, -1), np.zeros(1, dtype=np.int64), np.zeros(1)
+    n_half = contact_record.n // 2
+    for a, b in ((0, n_half), (n_half, contact_record.n - 1)):
+        blk.update_block(a, b, np.ascontiguousarray(z[a + 1:b + 1, None, :]), 1, peak, lim,
+                         first, fdof, fval)
+    np.testing.assert_allclose(blk.value[0], rms[-1], rtol=1e-12)
+    assert peak[0, 0] == pytest.approx(rms.max(), rel=1e-12)
+    assert first[0] == int(np.argmax(rms[:, 0] > lim[0, 0]))
     zn = z[5][None].copy()
     assert peak_bytes(lambda: on.update(5, zn), n=200) < 4096  # the call machinery only
 

@@ -22,31 +22,16 @@ choose a warm-up that excites the part.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from numba import njit
 
 from ..config import Scene
 from .estimator import identify
 from .online import OnlineReference
 from .running import WINDOW
-
-
-@njit(cache=True, nogil=True)
-def _track(rms, peak, lim):  # pragma: no cover - jit
-    """Peak of the running RMS (in place); whether any entry is above its limit."""
-    over = False
-    for r in range(rms.shape[0]):
-        for j in range(rms.shape[1]):
-            v = rms[r, j]
-            if v > peak[r, j]:
-                peak[r, j] = v
-            if v > lim[r, j]:
-                over = True
-    return over
-
 
 ACTIONS = ("warn", "stop")
 """What the monitor does when the running estimate crosses ``safety.fidelity_limit``."""
@@ -83,6 +68,8 @@ class FidelityMonitor:
         self.first: list[dict[str, float | str] | None] = [None] * len(self.scenes)
         self.peak = np.zeros((len(self.scenes), len(self.dofs)))
         self.failed: list[str] = [""] * len(self.scenes)
+        self.identify_s = 0.0
+        """Wall time of the identification after the warm-up (s; once per test group)."""
         from ..numerical import LinearSubstructure
 
         if self.enabled and type(num) is not LinearSubstructure:
@@ -100,17 +87,19 @@ class FidelityMonitor:
         c_z, c_f = ci[f"z_meas.{self.dofs[0]}"], ci[f"f_meas.{self.dofs[0]}"]
         d = len(self.dofs)
         if self.online is None:
+            t0 = time.perf_counter()
             self._identify(data[: n + 1, :, c_z:c_z + d], data[: n + 1, :, c_f:c_f + d])
+            self.identify_s = time.perf_counter() - t0
             if self.online is None:
                 return
         rows = self.watch
-        on = self.online
-        for m in range(self.done, n):
-            rms = on.update(m, data[m + 1, rows, c_z:c_z + d])
-            if m + 1 < self.warmup_rows:
-                continue  # the catch-up over the warm-up: a test is judged after it
-            if _track(rms, self._peak, self._lim):
-                self._cross(rms > self._lim, rms, m + 1, n, stop)
+        zm = data[self.done + 1:n + 1, :, c_z:c_z + d]
+        if rows.size != zm.shape[1]:
+            zm = zm[:, rows]
+        if self.online.update_block(self.done, n, np.ascontiguousarray(zm), self.warmup_rows,
+                                    self._peak, self._lim, self._first, self._first_dof,
+                                    self._first_val):
+            self._cross(n, stop)
         self.done = n
 
     def _identify(self, z: np.ndarray, f: np.ndarray) -> None:
@@ -153,19 +142,24 @@ class FidelityMonitor:
         self._peak = np.zeros((len(rows), len(self.dofs)))
         self._lim = np.ascontiguousarray(
             np.repeat(self.limit[rows, None], len(self.dofs), axis=1))
+        self._first = np.full(len(rows), -1, dtype=np.int64)
+        self._first_dof = np.zeros(len(rows), dtype=np.int64)
+        self._first_val = np.zeros(len(rows))
 
-    def _cross(self, over: np.ndarray, rms: np.ndarray, row: int, n: int, stop) -> None:
+    def _cross(self, n: int, stop) -> None:
+        """Tests whose first crossing was found in the block ending at row n."""
         for r, k in enumerate(self.watch):
-            if not over[r].any() or self.first[k] is not None:
+            row = int(self._first[r])
+            if row < 0 or self.first[k] is not None:
                 continue
-            j = int(np.argmax(rms[r] / self.limit[k]))
+            j = int(self._first_dof[r])
+            v = float(self._first_val[r])
             unit = "rad" if self.dofs[j].startswith("r") else "m"
-            self.first[k] = {"t": row * self.dt, "dof": self.dofs[j],
-                             "estimate": float(rms[r, j])}
+            self.first[k] = {"t": row * self.dt, "dof": self.dofs[j], "estimate": v}
             if self.scenes[k].safety.fidelity_action == "stop":
                 stop(int(k), f"fidelity estimate: running RMS of ê ({self.dofs[j]}) "
-                     f"{rms[r, j]:.4g} {unit} exceeded safety.fidelity_limit = "
-                     f"{self.limit[k]:g} {unit} at t = {row * self.dt:.3f} s", n)
+                     f"{v:.4g} {unit} exceeded safety.fidelity_limit = {self.limit[k]:g} "
+                     f"{unit} at t = {row * self.dt:.3f} s", n)
 
     # ------------------------------------------------------------------ results
     def summary(self, k: int) -> dict[str, Any] | None:
@@ -179,6 +173,7 @@ class FidelityMonitor:
                                "warmup": float(s.fidelity_warmup), "window": WINDOW,
                                "model": self.models[k] or None,
                                "validation": float(self.validation[k]),
+                               "identify_s": float(self.identify_s),
                                "peak": [float(v) for v in self.peak[k]],
                                "peak_after": float(s.fidelity_warmup),
                                "crossed": self.first[k]}

@@ -21,8 +21,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ._kernels import rms_update
 from .base import LagModel, LagPart
-from .running import RunningRMS
 
 
 @njit(cache=True, nogil=True)
@@ -148,6 +148,44 @@ def _step(n, s, f_n, zb, fb, Ad, Bf0, Bf1, P, Czx, th_lo, th_hi, a, c, h,
 
 
 @njit(cache=True, nogil=True)
+def _rms_rows(buf, sums, out, e, state):  # pragma: no cover - jit
+    """The running RMS of K tests (:func:`~rths3d.surrogate._kernels.rms_update` each)."""
+    for k in range(e.shape[0]):
+        rms_update(buf[k], sums[k], out[k], e[k], state[k])
+
+
+@njit(cache=True, nogil=True)
+def _block(n0, n1, zm, s, f_n, zb, fb, Ad, Bf0, Bf1, P, Czx, th_lo, th_hi, a, c, h, tmp_s, g,
+           A, rhs, z_out, f_out, limit, diverged, e, buf, sums, out, state, judge, peak,
+           lim, first, first_dof, first_val):  # pragma: no cover - jit
+    """Steps n0 … n1−1 with the measured z'_{m+1} = ``zm[m − n0]`` (K, d): ẑ^r, ê, the
+    running RMS; from row ``judge`` on, its peak (in place) and, per test not yet crossed
+    (``first[k] < 0``), the first row, DOF and value where it exceeds ``lim``. Returns how
+    many tests crossed in this block."""
+    new = 0
+    K, d = e.shape
+    for m in range(n0, n1):
+        _step(m, s, f_n, zb, fb, Ad, Bf0, Bf1, P, Czx, th_lo, th_hi, a, c, h, tmp_s, g, A,
+              rhs, z_out, f_out, limit, diverged)
+        for k in range(K):
+            for j in range(d):
+                e[k, j] = zm[m - n0, k, j] - z_out[k, j]
+        _rms_rows(buf, sums, out, e, state)
+        if m + 1 >= judge:
+            for k in range(K):
+                for j in range(d):
+                    v = out[k, j]
+                    if v > peak[k, j]:
+                        peak[k, j] = v
+                    if first[k] < 0 and v > lim[k, j]:
+                        first[k] = m + 1
+                        first_dof[k] = j
+                        first_val[k] = v
+                        new += 1
+    return new
+
+
+@njit(cache=True, nogil=True)
 def _run(N, s, f_n, zb, fb, Ad, Bf0, Bf1, P, Czx, th_lo, th_hi, a, c, h, limit, diverged,
          z_ref, f_ref):  # pragma: no cover - jit
     K, S = s.shape
@@ -256,7 +294,13 @@ class OnlineReference:
         self._A = np.zeros((self.d, self.d))
         self._rhs = np.zeros(self.d)
         self._e = np.zeros((self.K, self.d))
-        self._rms = [RunningRMS(self.d, window_samples) for _ in range(self.K)]
+        # one ring buffer of squares per test (RunningRMS's, stacked for the compiled loops)
+        W = int(window_samples)
+        if W < 1:
+            raise ValueError("OnlineReference needs window_samples >= 1")
+        self._buf = np.zeros((self.K, W, self.d))
+        self._sum = np.zeros((self.K, self.d))
+        self._state = np.zeros((self.K, 2), dtype=np.int64)
         self.value = np.zeros((self.K, self.d))
 
     def reset(self) -> None:
@@ -266,8 +310,10 @@ class OnlineReference:
         self.f_ref[:] = 0.0
         self._part.reset()
         self._part.diverged[:] = False
-        for r in self._rms:
-            r.reset()
+        self._buf[:] = 0.0
+        self._sum[:] = 0.0
+        self._state[:] = 0
+        self.value[:] = 0.0
 
     def update(self, n: int, z_meas: np.ndarray) -> np.ndarray:
         """Advance ẑ^r from t_n to t_{n+1}; ``z_meas`` is z'_{n+1} (K, d). Returns the running
@@ -277,6 +323,20 @@ class OnlineReference:
               p.th_lo, p.th_hi, p.a, p.c, p.h, self._tmp, self._g, self._A, self._rhs,
               self.z_ref, self.f_ref, p.limit, p.diverged)
         np.subtract(z_meas, self.z_ref, out=self._e)
-        for k in range(self.K):
-            self.value[k] = self._rms[k].update(self._e[k])
+        _rms_rows(self._buf, self._sum, self.value, self._e, self._state)
         return self.value
+
+    def update_block(self, n0: int, n1: int, z_meas: np.ndarray, judge: int,
+                     peak: np.ndarray, limit: np.ndarray, first: np.ndarray,
+                     first_dof: np.ndarray, first_val: np.ndarray) -> int:
+        """:meth:`update` for steps n0 … n1−1 in one compiled call (``z_meas`` (n1 − n0, K, d):
+        z'_{n0+1} … z'_{n1}). From row ``judge`` on, ``peak`` (K, d) keeps the largest running
+        RMS and, for each test k with ``first[k] < 0``, the first row whose running RMS exceeds
+        ``limit`` (K, d) goes to ``first[k]`` (int), its DOF to ``first_dof[k]`` (int) and
+        the value to ``first_val[k]``, all in place. Returns how many tests crossed."""
+        p, num = self._part, self.num
+        return int(_block(n0, n1, z_meas, self.s, self.f_n, p.zb, p.fb, num.Ad, num.Bf0,
+                          num.Bf1, num.P, num.Czx, p.th_lo, p.th_hi, p.a, p.c, p.h, self._tmp,
+                          self._g, self._A, self._rhs, self.z_ref, self.f_ref, p.limit,
+                          p.diverged, self._e, self._buf, self._sum, self.value, self._state,
+                          judge, peak, limit, first, first_dof, first_val))
