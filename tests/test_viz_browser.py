@@ -59,3 +59,25 @@ def test_browser_shows_a_diagnosis_replay_leg_by_leg(browser_ready, tmp_path):
                                    "residual per leg (leg force, noise units)"))
         assert v.updates > 0
     assert check.connected and all(check.texts.values()), check.texts
+
+
+def test_browser_draws_the_fidelity_estimate_as_a_band(browser_ready, tmp_path):
+    """A record with the surrogate reference's columns (as ``rths3d metrics --save-estimate``
+    writes them) and the monitor's metadata: the running RMS of ê with its members' band and
+    the limit, for the chosen DOF."""
+    from rths3d.loop import run
+    from rths3d.record import Record
+    from rths3d.scene import load_scene
+    from rths3d.surrogate import SurrogateReference
+
+    rec = run(load_scene("paper_contact", {"transfer.kind": "lti", "transfer.delay": 0.01,
+                                           "duration": 3.0, "safety.fidelity_limit": 2e-4,
+                                           "safety.fidelity_warmup": 1.0})).record
+    cols = dict(rec.columns)
+    cols.update(SurrogateReference().fit(rec).columns(rec))
+    assert {"e_hat_rms.z", "e_hat_rms_lo.z", "e_hat_rms_hi.z"} <= set(cols)
+    with Viewer(buffer_from_record(Record(rec.t, cols, rec.meta)), port=0) as v:
+        check = screenshot(v.url, tmp_path / "fidelity.png", settle=4.0,
+                           expect=("running RMS of ê = z' − ẑ^r, z (m, 0.25 s)",))
+        assert v.updates > 0
+    assert check.connected and all(check.texts.values()), check.texts

@@ -25,6 +25,8 @@ from .measures import RunningMeasures
 from .panels import (
     coefficient_data,
     coefficient_unit,
+    fidelity_cols,
+    fidelity_data,
     history_data,
     leg_columns,
     leg_data,
@@ -305,6 +307,9 @@ class Viewer:
         self.comp_folder: Any = None
         self._build_compensator()
         self._build_leg_panels()
+        self.fid_folder = gui.add_folder("Fidelity estimate (surrogate reference)")
+        self.fid_plot: Any = None
+        self._build_fidelity()
         with gui.add_folder("Running measures"):
             self.measures = RunningMeasures(self.buffer.meta)
             self.measures_md = gui.add_markdown(self.measures.markdown(None))
@@ -476,6 +481,28 @@ class Viewer:
         elif self.control is not None:
             self.control.set_speed(s)
 
+    def _build_fidelity(self) -> None:
+        """The running RMS of the estimated error ê = z' − ẑ^r of the chosen DOF with the
+        members' band and the monitor's limit (records with the surrogate's columns)."""
+        self._fid = fidelity_cols(self.buffer.index, self.dof)
+        self.fid_folder.visible = self._fid is not None
+        if self._fid is None:
+            return
+        fid = self.buffer.meta.get("fidelity") or {}
+        self._fid_limit = float(fid.get("limit", math.nan))
+        unit = UNITS.get(self.dof, "")
+        series = ({"label": "t (s)"},
+                  {"label": f"ê RMS ({unit})", "stroke": "#d62728", "width": 1.5},
+                  {"label": "band low", "stroke": "#d6272855", "width": 0.5},
+                  {"label": "band high", "stroke": "#d6272855", "width": 0.5},
+                  {"label": f"limit ({unit})", "stroke": "#444", "width": 1, "dash": [4, 4]})
+        with self.fid_folder:
+            self.fid_plot = self.server.gui.add_uplot(
+                data=tuple(np.zeros(2) for _ in series), series=series,
+                bands=({"series": (3, 2), "fill": "#d6272822"},),
+                title=f"running RMS of ê = z' − ẑ^r, {self.dof} ({unit}, 0.25 s)",
+                scales={"x": {"time": False}}, axes=({}, {"size": 72}), aspect=2.4)
+
     def _on_dof(self, _: Any) -> None:
         with self._lock:
             self.dof = str(self.dof_dropdown.value)
@@ -483,6 +510,10 @@ class Viewer:
             for h in (self.ssp_plot, self.disp_plot, self.force_plot):
                 h.remove()
             self._build_panels()
+            if self.fid_plot is not None:
+                self.fid_plot.remove()
+                self.fid_plot = None
+            self._build_fidelity()
             self._dirty = True
 
     def _on_exaggeration(self, _: Any) -> None:
@@ -585,6 +616,9 @@ class Viewer:
                 if self.coef_plot is not None:
                     self.coef_plot.data = coefficient_data(data, ch.t, self._coefs[self.coef],
                                                            rows)
+                if self.fid_plot is not None:
+                    self.fid_plot.data = fidelity_data(data, ch.t, self._fid, rows,
+                                                       self._fid_limit)
                 if self.leg_plot is not None:
                     meas, model, res = self._legs
                     self.leg_plot.data = leg_data(data, ch.t, int(meas[self._leg]),

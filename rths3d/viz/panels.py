@@ -10,6 +10,8 @@ slope line for perfect tracking).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .stream import Channels
@@ -105,3 +107,25 @@ def leg_residual_data(data: np.ndarray, t_col: int, res: np.ndarray, rows: slice
                       ) -> tuple[np.ndarray, ...]:
     """The six legs' force residuals (noise units) over ``rows``: ``(t, r_0, …, r_5)``."""
     return (_col(data, rows, t_col), *(_col(data, rows, int(c)) for c in res))
+
+
+def fidelity_cols(index: dict[str, int], dof: str) -> tuple[int, int, int] | None:
+    """Columns of the estimated error's running RMS of ``dof`` in a record with the surrogate
+    reference's columns (``rths3d metrics --save-estimate``): ``e_hat_rms``, ``e_hat_rms_lo``
+    and ``e_hat_rms_hi`` (−1 for a missing band edge); None without them."""
+    c = index.get(f"e_hat_rms.{dof}", -1)
+    if c < 0:
+        return None
+    return c, index.get(f"e_hat_rms_lo.{dof}", -1), index.get(f"e_hat_rms_hi.{dof}", -1)
+
+
+def fidelity_data(data: np.ndarray, t_col: int, cols: tuple[int, int, int], rows: slice,
+                  limit: float = math.nan) -> tuple[np.ndarray, ...]:
+    """``(t, ê_RMS, band low, band high, limit)`` over ``rows`` (s, m or rad): the estimated
+    error's running RMS, the members' spread as a band, and the monitor's limit as a line
+    (NaN: none)."""
+    t = _col(data, rows, t_col)
+    c, lo, hi = cols
+    mid = _col(data, rows, c)
+    return (t, mid, _col(data, rows, lo) if lo >= 0 else mid,
+            _col(data, rows, hi) if hi >= 0 else mid, np.full(t.shape, limit))
