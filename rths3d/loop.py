@@ -42,7 +42,7 @@ from .metadata import record_meta
 from .numerical import LinearSubstructure, NumericalFactory
 from .record import Record, RecordBuffer
 from .reference import reference_solution
-from .safety import EXTERNAL, USER, SafetyMonitor
+from .safety import USER, SafetyMonitor
 from .scene import scene_to_dict, scene_with
 from .stepping import noise_buffer, post_step, pre_step, run_steps
 from .surrogate.monitor import FidelityMonitor
@@ -194,8 +194,7 @@ class _Group:
         report = progress if callable(progress) else None
         every = control.every if control is not None else (500 if progress else self.N)
         fid = self.fidelity if self.fidelity.enabled else None
-        if fid is not None and control is None:
-            every = min(every, fid.every)  # the monitor looks after every block
+        every = every if fid is None or control else min(every, fid.every)  # monitor blocks
         pbar = tqdm(total=self.N, desc=f"{self.base.transfer.kind} ×{self.K}", unit="step",
                     mininterval=0.5,
                     # None: shown on a terminal only (a piped stderr keeps one-line errors)
@@ -215,22 +214,13 @@ class _Group:
                     report(done * self.K / self.N)
                 n += done
                 if fid is not None and self.monitor.any_active:
-                    self._watch_fidelity(fid, n)
+                    fid.check(self.data, self.ci, n, self.monitor, self.num)
                 if not self.monitor.any_active:
                     break
                 if control is not None and self._control(control, n, buffers, t0):
                     break
         self.flush(self.N + 1)
         return n, time.perf_counter() - t0, path
-
-    def _watch_fidelity(self, fid: FidelityMonitor, n: int) -> None:
-        """Rows 0…n are recorded: the online fidelity monitor's turn (it may stop tests)."""
-        def stop(k: int, reason: str, row: int) -> None:
-            if self.monitor.active[k]:
-                self.monitor.stop(k, reason, row, EXTERNAL)
-                self.num.halt(k)
-
-        fid.update(self.data, self.ci, n, stop)
 
     def _control(self, control: LoopControl, n: int, buffers: list[RecordBuffer],
                  t0: float) -> bool:
@@ -329,9 +319,8 @@ class _Group:
                 b.meta["status"] = "stopped"
                 b.meta["reason"] = mon.reason(k, self.test_ids[k])
             b.meta["rtf"] = rtf
-            fidelity = self.fidelity.summary(k)
-            if fidelity is not None:
-                b.meta["fidelity"] = fidelity
+            if self.fidelity.summary(k) is not None:
+                b.meta["fidelity"] = self.fidelity.summary(k)
             b.meta["loop"] = path
             d = b.data[: b.n]  # views of the loop's array (no copy of K × N × columns)
             rec = Record(d[:, 0], {c: d[:, i] for i, c in enumerate(b.columns) if i},

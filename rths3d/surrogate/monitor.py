@@ -79,6 +79,19 @@ class FidelityMonitor:
             self.enabled = False
 
     # ------------------------------------------------------------------ stepping
+    def check(self, data: np.ndarray, ci: dict[str, int], n: int, safety: Any,
+              num: Any) -> None:
+        """:meth:`update` with the loop's :class:`~rths3d.safety.SafetyMonitor`: a test the
+        monitor stops stops there (row n kept) and its numerical substructure rests."""
+        from ..safety import EXTERNAL
+
+        def stop(k: int, reason: str, row: int) -> None:
+            if safety.active[k]:
+                safety.stop(k, reason, row, EXTERNAL)
+                num.halt(k)
+
+        self.update(data, ci, n, stop)
+
     def update(self, data: np.ndarray, ci: dict[str, int], n: int, stop) -> None:
         """Rows 0…n of ``data`` are recorded: identify after the warm-up, then step ẑ^r to
         row n and act on any crossing."""
