@@ -103,8 +103,7 @@ class LoopControl:
 
 
 Progress = bool | Callable[[float], None]
-"""A progress bar (True) or a callable told the tests' worth of work done since its last
-call (how a sweep shows progress within a batch)."""
+"""A progress bar (True) or a callable told the tests' work done since its last call."""
 
 
 class _Group:
