@@ -2,6 +2,9 @@
 
 Prints ONE JSON line:
   rtf_stewart        one test on the MuJoCo Stewart platform (simulated s per wall s)
+  rtf_stewart_implicitfast  the same with ``transfer.integrator = "implicitfast"`` (first
+                     order; the default RK4 costs about 2.5× per physics step), alternated
+                     with it in one run
   stewart_over_bare  wall time of that whole loop over bare mj_step of the same model
   rtf_lti            one test on the 1-D LTI path (LTI actuator + numpy specimen)
   rtf_reference      the reference solution z^r of one test
@@ -65,10 +68,13 @@ def main() -> None:
     for sc_c in comp.values():  # the compensator's kernels load on its first run
         run(scene_with(sc_c, {"duration": 0.1}), reference=False)
 
-    rtf_st, ratio, rtf_lti, bare_rtf = [], [], [], []
+    rtf_st, ratio, rtf_lti, bare_rtf, rtf_if = [], [], [], [], []
+    fast = scene_with(sc, {"transfer.integrator": "implicitfast"})
+    run(scene_with(fast, {"duration": 0.1}), "stewart", reference=False)
     for _ in range(reps):
         r = run(sc, "stewart", reference=False)
         rtf_st.append(r.rtf)
+        rtf_if.append(run(fast, "stewart", reference=False).rtf)
         # bare mj_step of the same model (same number of physics steps), measured right after
         from rths3d.transfer import StewartTransfer
 
@@ -118,6 +124,7 @@ def main() -> None:
     b_lti = med([batch("lti", args.k_lti) for _ in range(reps)])
     print(json.dumps({
         "rtf_stewart": round(med(rtf_st), 2),
+        "rtf_stewart_implicitfast": round(med(rtf_if), 2),
         "stewart_over_bare": round(med(ratio), 3),
         "rtf_lti": round(med(rtf_lti), 2),
         "rtf_reference": round(rtf_ref, 2),

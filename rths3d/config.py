@@ -136,6 +136,10 @@ class TransferConfig:
     Stewart platform's leg servos; the ``lti`` path with the identified model follows
     ``timeconst`` and ``velocity_ff`` (with kv/kp) too, by exchanging the identification run's
     first-order lags for the scene's (:func:`rths3d.transfer.actuators.follow_servo_settings`).
+    ``integrator``: the Stewart platform's MuJoCo integrator, ``RK4`` (fourth order: one
+    substep of 1 ms agrees with sixteen to 0.0005 µm, what the diagnosis' replay relies on) or
+    ``implicitfast`` (first order, about 2.5× faster per physics step, 3 µm from the converged
+    pose with one substep; docs/platform.md).
     """
 
     kind: str = "ideal"
@@ -150,6 +154,7 @@ class TransferConfig:
     timeconst: float = 0.0
     velocity_ff: bool = True
     substeps: int = 1
+    integrator: str = "RK4"
     compensator: tuple[tuple[str, Any], ...] = ()
     """The compensator's own parameters (the ``[transfer.compensator]`` table, sorted
     key–value pairs; see :mod:`rths3d.compensation`)."""

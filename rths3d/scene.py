@@ -302,6 +302,7 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
         tr = replace(tr, compensator=tuple(items))
     if tr.substeps < 1 or tr.substeps > 100:
         raise ConfigError("transfer.substeps", tr.substeps, "must be in 1…100")
+    _choice("transfer.integrator", tr.integrator, ("RK4", "implicitfast"))
     if tr.poly_order < 1 or tr.poly_order > 4:
         raise ConfigError("transfer.poly_order", tr.poly_order, "must be in 1…4")
     if bool(tr.num) != bool(tr.den):

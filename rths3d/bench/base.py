@@ -49,7 +49,8 @@ def platform_config(scene: Scene, substeps: int | None = None) -> PlatformConfig
     t = scene.transfer
     return PlatformConfig(actuator=ActuatorConfig(kp=t.kp, kv=t.kv, timeconst=t.timeconst,
                                                   delay=t.delay, velocity_ff=t.velocity_ff),
-                          dt=scene.dt, substeps=t.substeps if substeps is None else substeps)
+                          dt=scene.dt, substeps=t.substeps if substeps is None else substeps,
+                          integrator=t.integrator)
 
 
 def _on(effects: Iterable[EffectConfig]) -> list[tuple[Effect, EffectConfig]]:

@@ -151,6 +151,7 @@ class StewartTransfer:
                           (get_effect(name).stage in ("setpoint", "fts", "sensor", "noise")
                            or name == "fixture_mass")})
         return (compensator_key(s), setting(s, "transfer.substeps", 1),
+                s.get("transfer.integrator", "RK4"),
                 part_class(s.get("experiment.kind", "contact")).batch_key(s), sensor_key(s),
                 tuple(effects))
 
