@@ -13,6 +13,11 @@ Run ``python benchmarks/sweep.py [--quick]``; prints ONE JSON line:
     wall time of the full Table-1 grid (13230 tests) with the 1-D LTI transfer (floor < 300 s).
     With ``--quick`` 512 tests in 2 batches of 256 (the full sweep's batch size) are timed and
     scaled.
+``table1_grid_lti_with_surrogate_s``
+    the same grid with the surrogate reference's estimate in every row (the spec leaves it
+    out, ``[sweep] surrogate = false``; a sweep carries it by default): a subset of 128
+    tests (256 without ``--quick``) timed with and without it side by side, the grid's time
+    scaled by their ratio; ``surrogate_cost_ratio`` is that ratio.
 ``paper280_lti_s``
     wall time of the paper's 280-test contact sweep with the 1-D LTI transfer (2 workers);
     its transfer settings are drawn per test, and the loop steps them together. With
@@ -41,6 +46,7 @@ import statistics
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -64,8 +70,6 @@ def _subset(spec, n: int, n_batches: int = 2):
     sweeps (whose tests are ordered by transfer setting, so batches are homogeneous); at least
     one batch per worker, else a 2-worker run would have nothing to share.
     """
-    from dataclasses import replace
-
     fams = []
     for f in spec.families:
         sample = {k: v for k, v in f.sample.items() if v[0] != "choice"}
@@ -206,6 +210,12 @@ def main() -> None:
             tg, _ = _timed_sweep(lti, tmp / "grid", 2)
             res["table1_grid_lti_s"] = tg
         res["table1_grid_tests"] = n_grid
+        # the same with the surrogate estimate in every row, side by side on a subset
+        sub = _subset(lti, 128 if args.quick else 256, n_batches=2)
+        t_off, _ = _timed_sweep(sub, tmp / "grid_off", 2)
+        t_on, _ = _timed_sweep(replace(sub, surrogate=True), tmp / "grid_on", 2)
+        res["surrogate_cost_ratio"] = t_on / t_off
+        res["table1_grid_lti_with_surrogate_s"] = res["table1_grid_lti_s"] * t_on / t_off
         # LM vs Adam on contact data (the 280-test LTI subset of the paper)
         paper = load_spec(SWEEPS / "paper280_lti.toml")
         res.update(mixed_vs_per_setting(paper, 12 if args.quick else paper.batch_size))

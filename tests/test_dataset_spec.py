@@ -253,6 +253,7 @@ def test_malformed_family_values_are_config_errors(patch, field) -> None:
 @pytest.mark.parametrize("sweep, field", [
     ({"batchsize": 2}, "sweep.batchsize"),
     ({"keep_records": "false"}, "sweep.keep_records"),
+    ({"surrogate": "no"}, "sweep.surrogate"),
     ({"batch_size": True}, "sweep.batch_size"),
     ({"duration": True}, "sweep.duration"),
 ])

@@ -227,6 +227,26 @@ def test_stopped_and_invalid_tests_are_recorded_with_reason(tmp_path) -> None:
     assert list(rows["family"]) == ["bad_mass"] and len(y) == 1
 
 
+def test_rows_carry_the_surrogate_estimate_unless_the_spec_leaves_it_out(
+        tiny_spec, reference_table, tmp_path) -> None:
+    """By default every finished row carries ê_rel,ref, close to the true e_rel,ref of these
+    linear-in-contact tests; ``[sweep] surrogate = false`` leaves the estimate columns NaN and
+    the other columns identical (and is a different spec: its digest differs)."""
+    from dataclasses import replace
+
+    on = reference_table[reference_table["status"] == "ok"]
+    hat, true = on["feature.e_rel_ref_hat"].to_numpy(), on["target.e_rel_ref"].to_numpy()
+    assert np.all(np.isfinite(hat))
+    assert np.median(np.abs(hat / true - 1)) < 0.1
+    spec = load_spec(tiny_spec)
+    off_spec = replace(spec, surrogate=False)
+    assert off_spec.digest() != spec.digest()
+    off = _sorted(run_sweep(off_spec, tmp_path / "off", workers=1, progress=False))
+    assert off["feature.e_rel_ref_hat"].isna().all()
+    ref = _sorted(reference_table)
+    np.testing.assert_array_equal(off["target.e_rel_ref"], ref["target.e_rel_ref"])
+
+
 def test_predict_on_a_kept_record_matches_table_row(tiny_spec, reference_table, tmp_path) -> None:
     """With keep_records the per-test records are saved; `rths3d predict MODEL RECORD` computes
     the record's features and predicts what the model predicts for that test's table row."""

@@ -158,7 +158,8 @@ def _run_rows(spec: SweepSpec, tests: list[dict[str, Any]], records_dir: str | N
             measured[i] = _measure(res)
         # the surrogate estimate of every finished test, identified one by one and coupled
         # together (one interface iteration for the batch)
-        done = [i for i, (status, _, _) in measured.items() if status == "ok"]
+        done = [i for i, (status, _, _) in measured.items()
+                if status == "ok" and spec.surrogate]
         for i, extra in zip(done, _surrogate([results[idx.index(i)].record for i in done]),
                             strict=True):
             measured[i][2].update(extra)

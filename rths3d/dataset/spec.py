@@ -49,7 +49,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..transfer import batch_key, transfer_kinds
 
-SWEEP_KEYS = ("name", "duration", "seed", "batch_size", "keep_records")
+SWEEP_KEYS = ("name", "duration", "seed", "batch_size", "keep_records", "surrogate")
 FAMILY_KEYS = ("name", "scene", "transfer", "subset", "fixed", "grid", "sample")
 
 
@@ -79,6 +79,10 @@ class SweepSpec:
     seed: int = 0
     batch_size: int = 16
     keep_records: bool = False
+    surrogate: bool = True
+    """Every row carries the surrogate reference's estimate (``feature.e_rel_ref_hat`` …,
+    :mod:`rths3d.surrogate`): about 0.1–0.2 s per 8 s test, several times a 1-D LTI test's
+    own cost; ``false`` leaves those columns NaN (the paper's Table-3 sets do not use them)."""
     base_dir: str = "."
     """Folder the scene paths are relative to (the spec file's folder)."""
     scenes: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
@@ -93,6 +97,8 @@ class SweepSpec:
         """Hash of everything that determines the results (guards resuming a changed spec)."""
         d = {"name": self.name, "duration": self.duration, "seed": self.seed,
              "families": [_family_dict(f) for f in self.families]}
+        if not self.surrogate:  # the rows' estimate columns (absent key: the default, on)
+            d["surrogate"] = False
         return hashlib.sha256(json.dumps(d, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
     def scene_path(self, family: Family) -> Path:
@@ -316,6 +322,9 @@ def parse_spec(data: Mapping[str, Any], base_dir: str | os.PathLike = ".") -> Sw
     keep = sw.get("keep_records", False)
     if not isinstance(keep, bool):
         raise ConfigError("sweep.keep_records", keep, "must be true or false")
+    surrogate = sw.get("surrogate", True)
+    if not isinstance(surrogate, bool):
+        raise ConfigError("sweep.surrogate", surrogate, "must be true or false")
     fams_raw = data.get("family", [])
     if not isinstance(fams_raw, list) or not fams_raw:
         raise ConfigError("family", None, "at least one [[family]] table is required")
@@ -325,7 +334,7 @@ def parse_spec(data: Mapping[str, Any], base_dir: str | os.PathLike = ".") -> Sw
     if dup:
         raise ConfigError("family.name", sorted(dup)[0], "family names must be unique")
     return SweepSpec(name, fams, None if duration is None else float(duration), seed, batch,
-                     keep, str(base_dir))
+                     keep, surrogate, str(base_dir))
 
 
 def load_spec(path: str | os.PathLike) -> SweepSpec:
