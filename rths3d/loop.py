@@ -135,6 +135,7 @@ class _Group:
         for sig in self.transfer.signals:
             cols += sig.columns
         cols += [f"f_ext.{d}" for d in dofs] + [f"p_num.{i}" for i in range(num.n)]
+        cols += self.fidelity.columns()
         if self.with_reference:  # no columns (nor memory) for a reference not asked for
             cols += [f"z_ref.{d}" for d in dofs] + [f"x_ref.{i}" for i in range(num.n)]
         self.cols = cols
@@ -150,6 +151,7 @@ class _Group:
         data[:, :, fe:fe + nd] = np.matmul(num.p, num.gamma).transpose(1, 0, 2)
         pn = self.ci["p_num.0"]
         data[:, :, pn:pn + num.n] = np.asarray(num.p).transpose(1, 0, 2)
+        self.fidelity.blank(data, self.ci)
         self.data = data
         # the transfer system's extra signals: copies per step, converted when flushed
         self.hist = []
@@ -194,10 +196,9 @@ class _Group:
         every = control.every if control is not None else (500 if progress else self.N)
         fid = self.fidelity if self.fidelity.enabled else None
         every = every if fid is None or control else min(every, fid.every)  # monitor blocks
+        # disable=None: shown on a terminal only (a piped stderr keeps one-line errors)
         pbar = tqdm(total=self.N, desc=f"{self.base.transfer.kind} ×{self.K}", unit="step",
-                    mininterval=0.5,
-                    # None: shown on a terminal only (a piped stderr keeps one-line errors)
-                    disable=True if (not progress or report is not None) else None)
+                    mininterval=0.5, disable=True if (not progress or report) else None)
         self._f = np.zeros((self.K, self.nd))  # F'_m held over the next step
         t0 = time.perf_counter()
         n = 0
@@ -318,8 +319,7 @@ class _Group:
                 b.meta["status"] = "stopped"
                 b.meta["reason"] = mon.reason(k, self.test_ids[k])
             b.meta["rtf"] = rtf
-            if self.fidelity.summary(k) is not None:
-                b.meta["fidelity"] = self.fidelity.summary(k)
+            b.meta.update(self.fidelity.meta(k))
             b.meta["loop"] = path
             d = b.data[: b.n]  # views of the loop's array (no copy of K × N × columns)
             rec = Record(d[:, 0], {c: d[:, i] for i, c in enumerate(b.columns) if i},

@@ -48,6 +48,15 @@ def test_warning_at_the_true_errors_crossing_with_its_peak():
     assert abs(fid["crossed"]["t"] - t_true) < 0.02, (fid["crossed"], t_true)
     assert fid["peak"][0] == pytest.approx(after.max(), rel=0.05)
     assert fid["model"]  # the identified class, e.g. switched(4,2)
+    # the online estimate is in the record (the live view draws it): its peak after the
+    # warm-up is the metadata's, it is above the limit at the crossing and below just before
+    online = res.record.columns["e_hat_rms.z"]
+    assert np.isnan(online[0]) and np.isfinite(online[1:]).all()
+    assert np.max(online[1000:]) == pytest.approx(fid["peak"][0], rel=1e-12)
+    row = int(round(fid["crossed"]["t"] / res.record.dt))
+    assert online[row] > LIMIT >= online[row - 1]
+    # and it follows the true running RMS after the warm-up
+    assert np.corrcoef(online[1000:], after)[0, 1] > 0.99
 
 
 def test_stop_keeps_the_partial_record_and_says_why():
@@ -70,6 +79,7 @@ def test_no_warning_on_a_faithful_test_and_off_by_default():
     assert _true_running_rms(res.record)[1000:].max() < LIMIT
     plain = run(load_scene("paper_contact", {"transfer.kind": "lti", "duration": 2.0}))
     assert "fidelity" not in plain.record.meta
+    assert "e_hat_rms.z" not in plain.record.columns
 
 
 def test_through_the_stewart_platform():

@@ -164,6 +164,7 @@ def run(
         "duration": float(res.record.duration),
         "omega_num_max": res.record.meta.get("omega_num_max"),
         "omega_dyn_max": res.record.meta.get("omega_dyn_max"),
+        "fidelity": res.record.meta.get("fidelity"),
     }
     if json_:
         typer.echo(json_line(summary))
@@ -175,6 +176,14 @@ def run(
                              ("fei_d", "FEI delay d", " s")):
         v = summary[key]
         typer.echo(f"  {label:12s} = {v:.4g}{unit}" if v is not None else f"  {label:12s} = n/a")
+    fid = summary["fidelity"]
+    if fid:  # the online fidelity monitor ([safety] fidelity_limit)
+        peak = ", ".join(f"{p:.3g}" for p in fid["peak"])
+        cross = fid["crossed"]
+        typer.echo(f"  fidelity     : running RMS of ê peaked at {peak} (limit "
+                   f"{fid['limit']:g}, part model {fid['model']})"
+                   + (f"; crossed at t = {cross['t']:.3f} s ({cross['dof']})" if cross
+                      else "; never crossed"))
     typer.echo(f"  RTF          = {res.rtf:.1f} (simulated s per wall s)")
     if res.out:
         typer.echo(f"  record       → {res.out}")

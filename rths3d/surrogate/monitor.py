@@ -109,9 +109,17 @@ class FidelityMonitor:
         zm = data[self.done + 1:n + 1, :, c_z:c_z + d]
         if rows.size != zm.shape[1]:
             zm = zm[:, rows]
-        if self.online.update_block(self.done, n, np.ascontiguousarray(zm), self.warmup_rows,
-                                    self._peak, self._lim, self._first, self._first_dof,
-                                    self._first_val):
+        rms = np.empty((n - self.done, rows.size, d))
+        crossed = self.online.update_block(
+            self.done, n, np.ascontiguousarray(zm), self.warmup_rows, self._peak, self._lim,
+            self._first, self._first_dof, self._first_val, rms)
+        # the online estimate into the record (``e_hat_rms.<dof>``: the live view draws it)
+        c_r = ci.get(f"e_hat_rms.{self.dofs[0]}")
+        if c_r is not None:
+            block = data[self.done + 1:n + 1]
+            for r, k in enumerate(rows):
+                block[:, k, c_r:c_r + d] = rms[:, r]
+        if crossed:
             self._cross(n, stop)
         self.done = n
 
@@ -175,6 +183,21 @@ class FidelityMonitor:
                      f"{unit} at t = {row * self.dt:.3f} s", n)
 
     # ------------------------------------------------------------------ results
+    def columns(self) -> list[str]:
+        """Record columns the monitor fills: the running RMS of ê per interface DOF
+        (``e_hat_rms.<dof>``, NaN until the warm-up is identified; none when it is off)."""
+        return [f"e_hat_rms.{d}" for d in self.dofs] if self.enabled else []
+
+    def blank(self, data: np.ndarray, ci: dict[str, int]) -> None:
+        """The monitor's columns of the loop's record array start unknown (NaN)."""
+        for c in self.columns():
+            data[:, :, ci[c]] = np.nan
+
+    def meta(self, k: int) -> dict[str, Any]:
+        """``{"fidelity": summary}`` for a watched test, else ``{}`` (record metadata)."""
+        s = self.summary(k)
+        return {} if s is None else {"fidelity": s}
+
     def summary(self, k: int) -> dict[str, Any] | None:
         """The record's metadata ``fidelity`` of test k (None: not watched)."""
         if self.limit[k] <= 0:

@@ -147,6 +147,9 @@ def _step(n, s, f_n, zb, fb, Ad, Bf0, Bf1, P, Czx, th_lo, th_hi, a, c, h,
             fb[k, 0, j] = f_out[k, j]
 
 
+_NO_ROWS = np.zeros((0, 0, 0))
+
+
 @njit(cache=True, nogil=True)
 def _rms_rows(buf, sums, out, e, state):  # pragma: no cover - jit
     """The running RMS of K tests (:func:`~rths3d.surrogate._kernels.rms_update` each)."""
@@ -157,12 +160,14 @@ def _rms_rows(buf, sums, out, e, state):  # pragma: no cover - jit
 @njit(cache=True, nogil=True)
 def _block(n0, n1, zm, s, f_n, zb, fb, Ad, Bf0, Bf1, P, Czx, th_lo, th_hi, a, c, h, tmp_s, g,
            A, rhs, z_out, f_out, limit, diverged, e, buf, sums, out, state, judge, peak,
-           lim, first, first_dof, first_val):  # pragma: no cover - jit
+           lim, first, first_dof, first_val, rms_rows):  # pragma: no cover - jit
     """Steps n0 … n1−1 with the measured z'_{m+1} = ``zm[m − n0]`` (K, d): ẑ^r, ê, the
     running RMS; from row ``judge`` on, its peak (in place) and, per test not yet crossed
     (``first[k] < 0``), the first row, DOF and value where it exceeds ``lim``. Returns how
-    many tests crossed in this block."""
+    many tests crossed in this block. ``rms_rows`` (n1 − n0, K, d), unless empty, receives
+    the running RMS of every step."""
     new = 0
+    keep = rms_rows.shape[0] > 0
     K, d = e.shape
     for m in range(n0, n1):
         _step(m, s, f_n, zb, fb, Ad, Bf0, Bf1, P, Czx, th_lo, th_hi, a, c, h, tmp_s, g, A,
@@ -171,6 +176,10 @@ def _block(n0, n1, zm, s, f_n, zb, fb, Ad, Bf0, Bf1, P, Czx, th_lo, th_hi, a, c,
             for j in range(d):
                 e[k, j] = zm[m - n0, k, j] - z_out[k, j]
         _rms_rows(buf, sums, out, e, state)
+        if keep:
+            for k in range(K):
+                for j in range(d):
+                    rms_rows[m - n0, k, j] = out[k, j]
         if m + 1 >= judge:
             for k in range(K):
                 for j in range(d):
@@ -328,15 +337,19 @@ class OnlineReference:
 
     def update_block(self, n0: int, n1: int, z_meas: np.ndarray, judge: int,
                      peak: np.ndarray, limit: np.ndarray, first: np.ndarray,
-                     first_dof: np.ndarray, first_val: np.ndarray) -> int:
+                     first_dof: np.ndarray, first_val: np.ndarray,
+                     rms_rows: np.ndarray | None = None) -> int:
         """:meth:`update` for steps n0 … n1−1 in one compiled call (``z_meas`` (n1 − n0, K, d):
         z'_{n0+1} … z'_{n1}). From row ``judge`` on, ``peak`` (K, d) keeps the largest running
         RMS and, for each test k with ``first[k] < 0``, the first row whose running RMS exceeds
         ``limit`` (K, d) goes to ``first[k]`` (int), its DOF to ``first_dof[k]`` (int) and
-        the value to ``first_val[k]``, all in place. Returns how many tests crossed."""
+        the value to ``first_val[k]``, all in place. ``rms_rows`` (n1 − n0, K, d), if given,
+        receives the running RMS after every step. Returns how many tests crossed."""
         p, num = self._part, self.num
+        if rms_rows is None:
+            rms_rows = _NO_ROWS
         return int(_block(n0, n1, z_meas, self.s, self.f_n, p.zb, p.fb, num.Ad, num.Bf0,
                           num.Bf1, num.P, num.Czx, p.th_lo, p.th_hi, p.a, p.c, p.h, self._tmp,
                           self._g, self._A, self._rhs, self.z_ref, self.f_ref, p.limit,
                           p.diverged, self._e, self._buf, self._sum, self.value, self._state,
-                          judge, peak, limit, first, first_dof, first_val))
+                          judge, peak, limit, first, first_dof, first_val, rms_rows))
