@@ -42,9 +42,9 @@ def main() -> None:
 
     from rths3d.ann import pearson_rho
     from rths3d.dataset import read_table
+    from rths3d.metrics._signals import dominant_dof
     from rths3d.record import Record
     from rths3d.surrogate import SurrogateConfig, SurrogateReference, running_rms
-    from rths3d.surrogate.estimator import dominant_dof
 
     table = read_table(args.sweep)
     table = table[table["status"] == "ok"]

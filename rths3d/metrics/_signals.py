@@ -89,6 +89,18 @@ def col_mean(x: np.ndarray) -> np.ndarray:
     return np.ones(x.shape[0]) @ x / x.shape[0]
 
 
+def dominant_dof(z: np.ndarray, f: np.ndarray | None) -> int:
+    """The DOF exchanging the most interface power, largest std(z)·std(F) over columns
+    (N, n_dof); a static offset (a preload, a held position) exchanges none, so means are
+    removed."""
+    zc = z - col_mean(z)
+    power = np.sqrt(np.einsum("ij,ij->j", zc, zc))
+    if f is not None:
+        fc = f - col_mean(f)
+        power = power * np.sqrt(np.einsum("ij,ij->j", fc, fc))
+    return int(np.argmax(power))
+
+
 def check_dt(dt: float) -> float:
     """A positive, finite sample interval (s)."""
     try:

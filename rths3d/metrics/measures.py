@@ -47,7 +47,7 @@ import numpy as np
 from ..errors import ConfigError, RecordError
 from ..record import Record
 from . import bench, energy, frequency, reference, ssp, susceptibility, tracking
-from ._signals import col_mean
+from ._signals import dominant_dof
 from .features import SURROGATE, feature_names
 
 SYSTEM_KEYS: tuple[str, ...] = (
@@ -300,14 +300,7 @@ def compute_measures(record: Record, *, surrogate: bool = False, **context: Any
         for key in js[0]:
             per[key] = np.array([row[key] for row in js], dtype=float)
 
-    # dominant DOF: most interface power; a static offset (a preload, a held position)
-    # exchanges none, so means are removed
-    zc = z - col_mean(z)
-    power = np.sqrt(np.einsum("ij,ij->j", zc, zc))
-    if fm is not None:
-        fc = fm - col_mean(fm)
-        power = power * np.sqrt(np.einsum("ij,ij->j", fc, fc))
-    dom = int(np.argmax(power))
+    dom = dominant_dof(z, fm)
 
     system = _system(record, context, meta, nd, dofs, float(per["fei_d"][dom]), k_exp)
     eei = _eei(record, context, meta, fm, zp, dt, totals.get("e_strain"))

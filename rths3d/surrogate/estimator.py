@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import RecordError
+from ..metrics._signals import dominant_dof
 from ..record import Record
 from .arx import ARX
 from .base import LagModel, LagPart, Switch, check_signals
@@ -282,17 +283,6 @@ def couple_members(records: Sequence[Record], members: Sequence[Sequence[LagMode
     return out  # type: ignore[return-value]
 
 
-def dominant_dof(z: np.ndarray, f: np.ndarray | None) -> int:
-    """The DOF exchanging the most interface power, largest std(z)·std(F) (means removed),
-    as :func:`rths3d.metrics.compute_measures` aggregates a multi-DOF record."""
-    zc = z - z.mean(axis=0)
-    power = np.sqrt(np.einsum("ij,ij->j", zc, zc))
-    if f is not None:
-        fc = f - f.mean(axis=0)
-        power = power * np.sqrt(np.einsum("ij,ij->j", fc, fc))
-    return int(np.argmax(power))
-
-
 def _errors(zr: np.ndarray, zp: np.ndarray, dom: int) -> dict[str, float]:
     from ..metrics import reference as ref
     from ..metrics import tracking
@@ -425,8 +415,9 @@ def fidelity_columns(record: Record, z_ref_hat: np.ndarray, window: float = WIND
     cols: dict[str, np.ndarray] = {}
     band = None
     if members is not None and len(members):
+        # members[0] is the estimate itself: the band contains its running RMS
         r_m = np.stack([running_rms(zp - m, record.dt, window) for m in members])
-        band = (np.minimum(r_m.min(axis=0), rms), np.maximum(r_m.max(axis=0), rms))
+        band = (r_m.min(axis=0), r_m.max(axis=0))
     for j, d in enumerate(record.dofs):
         cols[f"z_ref_hat.{d}"] = zr[:, j]
         cols[f"e_hat.{d}"] = e[:, j]

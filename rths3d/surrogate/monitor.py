@@ -31,7 +31,7 @@ import numpy as np
 from ..config import Scene
 from .estimator import identify
 from .online import OnlineReference
-from .running import WINDOW
+from .running import WINDOW, window_samples
 
 ACTIONS = ("warn", "stop")
 """What the monitor does when the running estimate crosses ``safety.fidelity_limit``."""
@@ -58,7 +58,7 @@ class FidelityMonitor:
         self.watch = np.flatnonzero(self.limit > 0)
         self.enabled = self.watch.size > 0
         self.warmup_rows = max(int(round(base.safety.fidelity_warmup / self.dt)), 1)
-        self.window_rows = max(int(round(WINDOW / self.dt)), 1)
+        self.window_rows = window_samples(WINDOW, self.dt)
         self.every = max(int(round(BLOCK / self.dt)), 1)
         self.num = num
         self.online: OnlineReference | None = None
@@ -219,12 +219,5 @@ class FidelityMonitor:
         return out
 
 
-def monitor_block(scenes: Sequence[Scene]) -> int | None:
-    """Steps between two monitor updates, or None when no test asks for the monitor."""
-    if not any(s.safety.fidelity_limit > 0 for s in scenes):
-        return None
-    return max(int(round(BLOCK / scenes[0].dt)), 1)
-
-
-__all__ = ["ACTIONS", "BLOCK", "FidelityMonitor", "monitor_block"]
+__all__ = ["ACTIONS", "BLOCK", "FidelityMonitor"]
 
