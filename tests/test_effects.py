@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rths3d.bench import BenchReplay
+from rths3d.bench import Bench, BenchReplay
 from rths3d.config import EffectConfig
 from rths3d.effects import REGISTRY, describe, get_effect, parse_effect_arg
 from rths3d.effects.blocks import PlayBlock, RateLimitBlock, run_blocks
@@ -138,3 +138,22 @@ def test_specimen_effects_on_the_contact_part():
         np.testing.assert_array_equal(o["f_meas.z"], outs[0]["f_meas.z"])
     assert np.max(np.abs(outs[4]["f_meas.z"] - outs[0]["f_meas.z"])) > 0.05
     assert DOFS[2] == "z"
+
+
+def test_servo_gain_and_compliance_combine_in_series():
+    """A leg's gain error and the platform's compliance act together, in either declared
+    order: leg 2's position gain is kp(1 + dkp) in series with c, kp_2 = k/(1 + k c) with
+    k = kp(1 + dkp), written here; the other legs kp/(1 + kp c)."""
+    sc = load_scene("bench6")
+    dkp, c = 0.3, 2e-6
+    effects = [EffectConfig("servo_gain", dkp, leg=2), EffectConfig("platform_compliance", c)]
+    for order in (effects, effects[::-1]):
+        bench = Bench.from_scene(sc).with_effects(order)
+        spec = bench.spec()
+        kp = bench.kp
+        k2 = kp * (1 + dkp)
+        for i in range(6):
+            want = k2 / (1 + k2 * c) if i == 2 else kp / (1 + kp * c)
+            act = spec.actuator(f"leg{i}")
+            assert act.gainprm[0] == pytest.approx(want, rel=1e-12)
+            assert act.biasprm[1] == pytest.approx(-want, rel=1e-12)

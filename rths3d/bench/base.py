@@ -57,7 +57,7 @@ def _on(effects: Iterable[EffectConfig]) -> list[tuple[Effect, EffectConfig]]:
     """Effects that are on, in stage order (then as declared)."""
     out = [(get_effect(e.name), e) for e in effects]
     out = [(eff, e) for eff, e in out if not eff.is_off(e.value)]
-    return sorted(out, key=lambda p: STAGES.index(p[0].stage))
+    return sorted(out, key=lambda p: (STAGES.index(p[0].stage), p[0].late))
 
 
 @dataclass(frozen=True)

@@ -17,6 +17,7 @@ nominal values (``kp``, ``physics_step``).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -147,10 +148,13 @@ class ViscousFriction(Effect):
             spec.joint(f"leg{i}_slide").damping = np.array([value, 0.0, 0.0])
 
 
-def _set_kp(spec: Any, i: int, kp: float) -> None:
+def _scale_kp(spec: Any, i: int, change: Callable[[float], float]) -> None:
+    """Leg i's position gain kp → change(kp), from the gain the spec has now, so that several
+    gain effects (a leg's own and the platform's compliance) combine in any order."""
     act = spec.actuator(f"leg{i}")
     gain = np.array(act.gainprm)
     bias = np.array(act.biasprm)
+    kp = change(float(gain[0]))
     gain[0] = kp
     bias[1] = -kp
     act.gainprm = gain
@@ -168,7 +172,7 @@ class ServoGain(Effect):
 
     def apply_spec(self, spec, value, ctx, leg, axis):
         for i in _legs(leg):
-            _set_kp(spec, i, ctx.kp * (1.0 + value))
+            _scale_kp(spec, i, lambda kp: kp * (1.0 + value))
 
 
 @register
@@ -179,10 +183,11 @@ class PlatformCompliance(Effect):
                   "series compliance of legs, joints and reaction frame")
     description = "Compliance in series with every leg servo: kp' = kp / (1 + kp·c)."
     signature = "displacement residual ∝ force"
+    late = True  # in series with each leg's servo as it is (its own gain error included)
 
     def apply_spec(self, spec, value, ctx, leg, axis):
         for i in range(6):
-            _set_kp(spec, i, ctx.kp / (1.0 + ctx.kp * value))
+            _scale_kp(spec, i, lambda kp: kp / (1.0 + kp * value))
 
 
 @register
