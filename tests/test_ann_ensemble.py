@@ -44,16 +44,16 @@ def test_median_is_the_default_and_survives_save(fitted, tmp_path) -> None:
     np.testing.assert_allclose(back.predict(X, warn=False), model.predict(X, warn=False))
 
 
-def test_ensemble_error_never_exceeds_the_median_members_error(fitted) -> None:
-    """For every test sample: |median − y| ≤ median over the members of |member − y| (odd
-    number of members; the property the median guarantees sample by sample)."""
+def test_ensemble_scores_at_least_its_median_member(fitted) -> None:
+    """On the test split, ρ of the median ensemble (eq. 15, numpy's corrcoef here) is at least
+    the median of its members' ρ — the issue's "cannot score below its median member" on
+    fitted nets (per sample the median's error is bounded by construction; ρ is not)."""
     model, X, y, _ = fitted
     te = model.indices["test"]
     outs = model.predict_members(X, warn=False)[:, te]
     ens = model.predict(X, warn=False)[te]
-    assert outs.shape[0] % 2 == 1
-    med_member_err = np.median(np.abs(outs - y[te]), axis=0)
-    assert np.all(np.abs(ens - y[te]) <= med_member_err + 1e-15)
+    members = [np.corrcoef(o, y[te])[0, 1] for o in outs]
+    assert np.corrcoef(ens, y[te])[0, 1] >= np.median(members)
 
 
 def test_wild_members_cannot_pull_the_median_below_its_median_member(fitted) -> None:

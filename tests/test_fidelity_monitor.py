@@ -92,7 +92,9 @@ def test_through_the_stewart_platform():
     fid = res.record.meta["fidelity"]
     assert fid["validation"] < 0.1  # relative output error of the part model, held out
     true = _true_running_rms(res.record)[2000:]
-    assert (fid["crossed"] is not None) == (true.max() > LIMIT)
+    assert true.max() > LIMIT and fid["crossed"] is not None
+    t_true = (2000 + int(np.argmax(true > LIMIT))) * res.record.dt
+    assert abs(fid["crossed"]["t"] - t_true) < 0.02, (fid["crossed"], t_true)
     assert fid["peak"][0] == pytest.approx(true.max(), rel=0.1)
 
 

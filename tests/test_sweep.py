@@ -237,14 +237,19 @@ def test_rows_carry_the_surrogate_estimate_unless_the_spec_leaves_it_out(
     on = reference_table[reference_table["status"] == "ok"]
     hat, true = on["feature.e_rel_ref_hat"].to_numpy(), on["target.e_rel_ref"].to_numpy()
     assert np.all(np.isfinite(hat))
-    assert np.median(np.abs(hat / true - 1)) < 0.1
+    # most rows within 1 %; none off by more than a factor 4 (one of these eight
+    # reads 3.3×: the limits of the surrogate are measured in docs/ann.md)
+    assert np.median(np.abs(hat / true - 1)) < 0.01
+    assert np.all((hat / true > 0.25) & (hat / true < 4.0))
     spec = load_spec(tiny_spec)
     off_spec = replace(spec, surrogate=False)
     assert off_spec.digest() != spec.digest()
     off = _sorted(run_sweep(off_spec, tmp_path / "off", workers=1, progress=False))
     assert off["feature.e_rel_ref_hat"].isna().all()
     ref = _sorted(reference_table)
-    np.testing.assert_array_equal(off["target.e_rel_ref"], ref["target.e_rel_ref"])
+    est = [c for c in ref.columns if "_hat" in c or "surrogate" in c]
+    assert est and off[est].isna().all().all()
+    pd.testing.assert_frame_equal(off.drop(columns=est), ref.drop(columns=est))
 
 
 def test_predict_on_a_kept_record_matches_table_row(tiny_spec, reference_table, tmp_path) -> None:
