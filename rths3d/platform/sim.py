@@ -41,6 +41,7 @@ from typing import Any
 
 import mujoco
 import mujoco.batch
+import numba
 import numpy as np
 
 from ..effects.blocks import Block, Chain, DelayBlock, LagBlock, njit
@@ -172,49 +173,47 @@ def plate_pose(q: np.ndarray, home_height: float) -> np.ndarray:
 
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def rotation(rx, ry, rz):  # pragma: no cover - jit
+    """R = Rz(rz) Ry(ry) Rx(rx) of fixed-axis angles, as its 9 entries row by row (the
+    platform's inverse kinematics and the per-leg channels share it)."""
+    cx, sx = math.cos(rx), math.sin(rx)
+    cy, sy = math.cos(ry), math.sin(ry)
+    cz, sz = math.cos(rz), math.sin(rz)
+    return (cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx,
+            sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx,
+            -sy, cy * sx, cy * cx)
+
+
 @njit
-def leg_setpoints(poses, b, p, hh, home, off, ffg, Lprev, L, ctrl, a0, half, vdt, run, ik):
+def leg_setpoints(poses, b, p, hh, home, ffg, Lprev, L, sp, half, vdt, run, ik):
     """Inverse kinematics, command limits and leg set-points of K platforms.
 
-    Leg i of test k: L = |t + R p_i − b_i| with R = Rz(rz) Ry(ry) Rx(rx) and t the plate
-    position (home height ``hh`` added), the set-point ``L − (L_home − offset) + g_ff·ΔL``
-    (gravity compensation, velocity feed-forward g_ff = kv/(kp ΔT)) written to
-    ``ctrl[k, a0 + i]`` for the tests in ``run``. Returns the number of running tests whose
-    command leaves the stroke (±``half``) or the speed (|ΔL| ≤ ``vdt``); those keep their
-    set-point and ``Lprev`` (the caller stops them). ``ik`` False: the lengths already in
-    ``L`` are the ones to command (per-leg compensation, :attr:`PlatformBatch.leg_hook`).
+    Leg i of test k: L = |t + R p_i − b_i| with R = :func:`rotation` and t the plate position
+    (home height ``hh`` added); the set-point ``L − L_home + g_ff·ΔL`` (velocity feed-forward
+    g_ff = kv/(kp ΔT); the set-point blocks, gravity compensation and encoder bias follow in
+    :func:`ramp_ctrl`) written to ``sp[k, i]`` for the tests in ``run``. Returns the number
+    of running tests whose command leaves the stroke (±``half``) or the speed
+    (|ΔL| ≤ ``vdt``); those keep their set-point and ``Lprev`` (the caller stops them).
+    ``ik`` False: the lengths already in ``L`` are the ones to command (per-leg
+    compensation, :attr:`PlatformBatch.leg_hook`).
     """
     bad = 0
     for k in range(poses.shape[0]):
-        x, y, z = poses[k, 0], poses[k, 1], poses[k, 2]
-        cx, sx = math.cos(poses[k, 3]), math.sin(poses[k, 3])
-        cy, sy = math.cos(poses[k, 4]), math.sin(poses[k, 4])
-        cz, sz = math.cos(poses[k, 5]), math.sin(poses[k, 5])
-        r00 = cz * cy
-        r01 = cz * sy * sx - sz * cx
-        r02 = cz * sy * cx + sz * sx
-        r10 = sz * cy
-        r11 = sz * sy * sx + cz * cx
-        r12 = sz * sy * cx - cz * sx
-        r20 = -sy
-        r21 = cy * sx
-        r22 = cy * cx
-        tz = z + hh
-        ok = True
-        for i in range(6):
-            px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-            if pz != 0.0:  # top anchors off the plate plane (a calibrated geometry)
+        if ik:
+            x, y, tz = poses[k, 0], poses[k, 1], poses[k, 2] + hh
+            r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation(
+                poses[k, 3], poses[k, 4], poses[k, 5])
+            for i in range(6):
+                px, py, pz = p[i, 0], p[i, 1], p[i, 2]
                 lx = x + r00 * px + r01 * py + r02 * pz - b[i, 0]
                 ly = y + r10 * px + r11 * py + r12 * pz - b[i, 1]
                 lz = tz + r20 * px + r21 * py + r22 * pz - b[i, 2]
-            else:
-                lx = x + r00 * px + r01 * py - b[i, 0]
-                ly = y + r10 * px + r11 * py - b[i, 1]
-                lz = tz + r20 * px + r21 * py - b[i, 2]
-            Li = math.sqrt(lx * lx + ly * ly + lz * lz) if ik else L[k, i]
-            L[k, i] = Li
+                L[k, i] = math.sqrt(lx * lx + ly * ly + lz * lz)
+        ok = True
+        for i in range(6):
             # `not <=`: a NaN command stops like an overrun
-            if not (abs(Li - home[i]) <= half and abs(Li - Lprev[k, i]) <= vdt):
+            if not (abs(L[k, i] - home[i]) <= half and abs(L[k, i] - Lprev[k, i]) <= vdt):
                 ok = False
         if not run[k]:
             continue
@@ -222,7 +221,7 @@ def leg_setpoints(poses, b, p, hh, home, off, ffg, Lprev, L, ctrl, a0, half, vdt
             bad += 1
             continue
         for i in range(6):
-            ctrl[k, a0 + i] = L[k, i] - (home[i] - off[k, i]) + ffg[k] * (L[k, i] - Lprev[k, i])
+            sp[k, i] = L[k, i] - home[i] + ffg[k] * (L[k, i] - Lprev[k, i])
             Lprev[k, i] = L[k, i]
     return bad
 
@@ -563,7 +562,6 @@ class PlatformBatch:
         self._fts_quat = self._sensor[:, qa:qa + 4]
         self._R_start = np.zeros((nsim, 9))
         self._L = np.zeros((nsim, 6))
-        self._zero6 = np.zeros((nsim, 6))
         self._sp = np.zeros((nsim, 6))
         self._cprev = np.zeros((nsim, 6))
         self._cnew = np.zeros((nsim, 6))
@@ -776,9 +774,8 @@ class PlatformBatch:
             # per-leg compensation: the hook writes the lengths to command into _L (from the
             # poses, with this platform's anchors); the call below checks and writes those
             self.leg_hook(self._L)
-        if leg_setpoints(self.poses, self._b, self._p, self._hh, self._home, self._zero6,
-                         self._ffg, self._Lprev, self._L, sp, 0, self._half, self._vdt,
-                         self._run, ik):
+        if leg_setpoints(self.poses, self._b, self._p, self._hh, self._home, self._ffg,
+                         self._Lprev, self._L, sp, self._half, self._vdt, self._run, ik):
             self._command_limits(self._L - self._home, self._L - self._Lprev)
         y = sp if self.setpoint_chain.empty else self.setpoint_chain(sp)
         run = self._run

@@ -36,7 +36,7 @@ from numba import njit
 
 from ..compensation import BaseCompensator
 from ..config import Scene
-from ..platform.sim import PlatformBatch
+from ..platform.sim import PlatformBatch, interface_command, rotation
 from ..record import DOFS
 from .commands import build_compensator
 
@@ -54,23 +54,14 @@ def leg_channels(poses, rates, b, p, hh, home, q, s_des, s_rate, s_meas):
     (m/s, rad/s of the fixed-axis angles) and the measured extensions (the slide positions
     ``q``), each (K, 6) in m or m/s."""
     for k in range(poses.shape[0]):
-        cx, sx = math.cos(poses[k, 3]), math.sin(poses[k, 3])
-        cy, sy = math.cos(poses[k, 4]), math.sin(poses[k, 4])
+        r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation(
+            poses[k, 3], poses[k, 4], poses[k, 5])
         cz, sz = math.cos(poses[k, 5]), math.sin(poses[k, 5])
-        r00 = cz * cy
-        r01 = cz * sy * sx - sz * cx
-        r02 = cz * sy * cx + sz * sx
-        r10 = sz * cy
-        r11 = sz * sy * sx + cz * cx
-        r12 = sz * sy * cx - cz * sx
-        r20 = -sy
-        r21 = cy * sx
-        r22 = cy * cx
-        # ω = ṙz e_z + ṙy Rz e_y + ṙx Rz Ry e_x (R = Rz Ry Rx)
+        # ω = ṙz e_z + ṙy Rz e_y + ṙx Rz Ry e_x (R = Rz Ry Rx; Rz Ry e_x is R's first column)
         ax, ay, az = rates[k, 3], rates[k, 4], rates[k, 5]
-        wx = -sz * ay + cz * cy * ax
-        wy = cz * ay + sz * cy * ax
-        wz = az - sy * ax
+        wx = -sz * ay + r00 * ax
+        wy = cz * ay + r10 * ax
+        wz = az + r20 * ax
         for i in range(6):
             px, py, pz = p[i, 0], p[i, 1], p[i, 2]
             rx = r00 * px + r01 * py + r02 * pz
@@ -94,14 +85,6 @@ def _commands_out(u, home, L):
     for k in range(L.shape[0]):
         for i in range(6):
             L[k, i] = home[i] + u[k, i]
-
-
-@njit(cache=True, nogil=True)
-def _take(zdot, idx, rates):
-    """The interface DOFs' rates into their pose columns."""
-    for k in range(zdot.shape[0]):
-        for c in range(idx.shape[0]):
-            rates[k, idx[c]] = zdot[k, c]
 
 
 class LegCompensation:
@@ -141,7 +124,7 @@ class LegCompensation:
 
     # -- the interface compensator's face ----------------------------------------------------
     def command(self, z: np.ndarray, zdot: np.ndarray, z_meas: np.ndarray) -> np.ndarray:
-        _take(zdot, self.idx, self.rates)
+        interface_command(zdot, self.idx, self.rates)  # ż into the pose-rate columns
         return z
 
     def reset(self) -> None:
