@@ -210,12 +210,6 @@ class SafetyMonitor:
         return check_command(z, zd, x, self.lim_z, self.lim_v, self.lim_x, self.active,
                              self.code, self.dof, self.value, self.row, n)
 
-    def force(self, n: int, f: np.ndarray) -> int:
-        """Check the measured force of step n: FTS range, then growth."""
-        return check_measured(f, self.lim_f, self.g_win, self.g_fac, self.g_n, self.g_floor,
-                              self.g_pk, self.g_prev, self.g_base, self.g_cnt, self.active,
-                              self.code, self.dof, self.value, self.row, n)
-
     def stop(self, k: int, reason: str, row: int, code: int = EXTERNAL) -> None:
         """Stop test k from outside the checks (the transfer system, the user)."""
         if self.active[k]:

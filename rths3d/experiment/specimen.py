@@ -65,8 +65,8 @@ def euler_kernel(p, s, z0, z1, f):
 @njit(cache=True, nogil=True)
 def rk4_kernel(inv_m, k, d, h0, kc, dc, dt, ns, h, a0, a1, x, v, zprev, f):  # pragma: no cover
     """One interface step of K parts by classical RK4 with ``ns`` substeps of ``h`` (the
-    reference's model): the formulas of :meth:`Specimen1D._rk4_scalar`, operation for
-    operation, for every row; ``x``, ``v``, ``zprev`` and ``f`` (K,) are updated in place."""
+    reference's model), the mount moving linearly over the step; ``x``, ``v``, ``zprev`` and
+    ``f`` (K,) are updated in place."""
     for r in range(a0.shape[0]):
         im, kr, dr, hr, kcr, dcr = inv_m[r], k[r], d[r], h0[r], kc[r], dc[r]
         b0, b1 = a0[r], a1[r]
@@ -138,8 +138,6 @@ class Specimen1D:
         self._kch = self.kc * h / self.m
         self._dch = self.dc * h / self.m
         self._h0 = np.where(np.isfinite(self.h0), self.h0, 1e300)
-        self._compiled_rk4 = True
-        """RK4 through :func:`rk4_kernel` (False: the numpy / plain-float path it mirrors)."""
         self.params = np.ascontiguousarray(np.stack([
             self._kh, self._dh, self._kch, self._dch, self._h0, self.k, self.d,
             np.full(K, self.dt), np.full(K, float(self.substeps)), np.full(K, h)], axis=1))
@@ -164,11 +162,6 @@ class Specimen1D:
         """Restore a state from :meth:`get_state`."""
         self.x[:], self.v[:], self._zm_prev[:] = s[0], s[1], s[2]
 
-    def _accel(self, zm, vm, x, v):
-        fc = self.kc * (x - self.h0) + self.dc * v
-        fc = np.where(x > self.h0, np.maximum(fc, 0.0), 0.0)
-        return (self.k * (zm - x) + self.d * (vm - v) - fc) * self._inv_m
-
     def advance(self, z0: np.ndarray, z1: np.ndarray) -> np.ndarray:
         """Move the mount linearly from ``z0`` to ``z1`` (K, 1) over ΔT; return F_m (K, 1)
         at the end of the step (N)."""
@@ -176,62 +169,11 @@ class Specimen1D:
         a1 = z1[:, 0]
         ns = self.substeps
         h = self.dt / ns
-        x, v = self.x, self.v
         if self.method == "euler":
             euler_kernel(self.params, self.state, np.ascontiguousarray(a0),
                          np.ascontiguousarray(a1), self.f[:, 0])
             return self.f
-        vm = (a1 - a0) / self.dt
-        if self._compiled_rk4:
-            rk4_kernel(self._inv_m, self.k, self.d, self.h0, self.kc, self.dc, self.dt, ns, h,
-                       np.ascontiguousarray(a0), np.ascontiguousarray(a1), x, v,
-                       self._zm_prev, self.f[:, 0])
-            return self.f
-        if self.K == 1:
-            self._rk4_scalar(float(a0[0]), float(a1[0]), float(vm[0]), h)
-        else:
-            for j in range(ns):
-                zs = a0 + (a1 - a0) * (j / ns)
-                zh = a0 + (a1 - a0) * ((j + 0.5) / ns)
-                ze = a0 + (a1 - a0) * ((j + 1.0) / ns)
-                k1x, k1v = v, self._accel(zs, vm, x, v)
-                k2x, k2v = v + 0.5 * h * k1v, self._accel(zh, vm, x + 0.5 * h * k1x,
-                                                          v + 0.5 * h * k1v)
-                k3x, k3v = v + 0.5 * h * k2v, self._accel(zh, vm, x + 0.5 * h * k2x,
-                                                          v + 0.5 * h * k2v)
-                k4x, k4v = v + h * k3v, self._accel(ze, vm, x + h * k3x, v + h * k3v)
-                x += h / 6.0 * (k1x + 2 * k2x + 2 * k3x + k4x)
-                v += h / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v)
-        self._zm_prev[:] = a1
-        self.f[:, 0] = self.k * (a1 - x) + self.d * (vm - v)
+        rk4_kernel(self._inv_m, self.k, self.d, self.h0, self.kc, self.dc, self.dt, ns, h,
+                   np.ascontiguousarray(a0), np.ascontiguousarray(a1), self.x, self.v,
+                   self._zm_prev, self.f[:, 0])
         return self.f
-
-    def _rk4_scalar(self, a0: float, a1: float, vm: float, h: float) -> None:
-        """RK4 of one test in plain floats (the reference's hot path; same formulas)."""
-        m, k, d = float(self.m[0]), float(self.k[0]), float(self.d[0])
-        h0, kc, dc = float(self.h0[0]), float(self.kc[0]), float(self.dc[0])
-        im = 1.0 / m
-        x, v = float(self.x[0]), float(self.v[0])
-        ns = self.substeps
-
-        def acc(zm: float, x: float, v: float) -> float:
-            fc = 0.0
-            if x > h0:
-                fc = kc * (x - h0) + dc * v
-                if fc < 0.0:
-                    fc = 0.0
-            return (k * (zm - x) + d * (vm - v) - fc) * im
-
-        dz = a1 - a0
-        for j in range(ns):
-            zs = a0 + dz * (j / ns)
-            zh = a0 + dz * ((j + 0.5) / ns)
-            ze = a0 + dz * ((j + 1.0) / ns)
-            k1v = acc(zs, x, v)
-            k2x, k2v = v + 0.5 * h * k1v, acc(zh, x + 0.5 * h * v, v + 0.5 * h * k1v)
-            k3x, k3v = v + 0.5 * h * k2v, acc(zh, x + 0.5 * h * k2x, v + 0.5 * h * k2v)
-            k4x, k4v = v + h * k3v, acc(ze, x + h * k3x, v + h * k3v)
-            x += h / 6.0 * (v + 2 * k2x + 2 * k3x + k4x)
-            v += h / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v)
-        self.x[0] = x
-        self.v[0] = v

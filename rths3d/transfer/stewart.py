@@ -121,7 +121,6 @@ class StewartTransfer:
             RecordSignal("fts", WRENCH, sim.fts_reading, _noisy(
                 None, sig("fts", WRENCH), [s + 4 for s in seeds]), None),
         )
-        self._rest_fts = sim.fts_reading
 
         def meta_of(s: Scene, b: Bench) -> dict[str, Any]:
             t = s.transfer
