@@ -297,3 +297,16 @@ def test_every_sweep_row_carries_the_estimate(tmp_path) -> None:
     assert names == tuple(SET_1) + tuple(SURROGATE)
     X, y, _ = training_data(table, names)
     assert list(X.columns) == list(names) and len(y) == 4
+
+
+def test_the_lowest_orders_a_config_allows_validate_too() -> None:
+    """ARX(1, 0), the lowest orders SurrogateConfig accepts, on a static spring F = k z
+    written here: it validates (held-out error at the noise level) and finds k."""
+    from rths3d.surrogate import ARX
+
+    rng = np.random.default_rng(0)
+    z = rng.normal(0.0, 1e-3, (2000, 1))
+    f = 8650.0 * z + rng.normal(0.0, 1e-3, (2000, 1))
+    m = ARX(1, 0).fit(z, f)
+    assert m.validate(z, f) < 1e-3
+    np.testing.assert_allclose(m.predict(z, f), 8650.0 * z[1:], rtol=0, atol=1e-2)

@@ -65,14 +65,20 @@ def difference_transform(m: int) -> np.ndarray:
     return T
 
 
+def first_sample(nb: int, na: int) -> int:
+    """The first sample a model of orders (nb, na) predicts: all its lags, and the state at
+    the start of the step a switch reads (n ≥ 1)."""
+    return max(nb - 1, na, 1)
+
+
 def lag_matrix(z: np.ndarray, f: np.ndarray, nb: int, na: int, start: int | None = None
                ) -> tuple[np.ndarray, np.ndarray, int]:
     """Raw regressors R (rows, p) and targets Y (rows, d) for samples n = start … N−1.
 
-    ``start`` defaults to the first sample with all lags, max(nb − 1, na).
+    ``start`` defaults to :func:`first_sample`.
     """
     N, d = z.shape
-    L = max(nb - 1, na)
+    L = first_sample(nb, na)
     s = L if start is None else max(int(start), L)
     rows = N - s
     p = (nb + na) * d + 1
@@ -254,7 +260,7 @@ class LagModel:
         """Free run of F over samples [start, stop) driven by ``z``, its lags before
         ``start`` the measured ``f`` (N, d). Diverged samples are inf."""
         z, f = check_signals(z, f)
-        L = max(self.nb - 1, self.na, 1)
+        L = first_sample(self.nb, self.na)
         n0 = L if start is None else max(int(start), L)
         n1 = len(z) if stop is None else int(stop)
         sw = self.switch_
@@ -271,7 +277,7 @@ class LagModel:
         initial lags; the mean over blocks of RMS(F_sim − F)/RMS(F), each block's error
         capped at :data:`ERROR_CAP` (a run that diverges counts as the cap)."""
         z, f = check_signals(z, f)
-        L = max(self.nb - 1, self.na, 1)
+        L = first_sample(self.nb, self.na)
         scale = np.sqrt(np.mean(f * f)) or 1.0
         errs = []
         for b0, b1 in blocks(len(z), L, n_blocks):
@@ -285,7 +291,7 @@ class LagModel:
         """In-sample output error: this model run freely over the whole record,
         RMS(F_sim − F)/RMS(F) (capped at :data:`ERROR_CAP`)."""
         z, f = check_signals(z, f)
-        L = max(self.nb - 1, self.na, 1)
+        L = first_sample(self.nb, self.na)
         return self._error(self.predict(z, f, L), f[L:], np.sqrt(np.mean(f * f)) or 1.0)
 
     @staticmethod

@@ -36,7 +36,7 @@ from ..errors import RecordError
 from ..metrics._signals import dominant_dof
 from ..record import Record
 from .arx import ARX
-from .base import LagModel, LagPart, Switch, check_signals
+from .base import LagModel, LagPart, Switch, check_signals, first_sample
 from .running import WINDOW, running_rms
 from .switched import SwitchedARX
 
@@ -158,7 +158,7 @@ def identify(z: np.ndarray, f: np.ndarray, config: SurrogateConfig | None = None
     members: list[LagModel] = [best]
     names = [best.label]
     if cfg.halves:
-        L = max(best.nb - 1, best.na)
+        L = first_sample(best.nb, best.na)
         n = len(z) - L
         for name, rows in (("first half", np.arange(n) < n // 2),
                            ("second half", np.arange(n) >= n // 2)):
