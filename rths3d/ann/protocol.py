@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from .estimator import FidelityANN, combine_members
-from .scores import mse, pearson_rho
+from .scores import log10_rho, mse, pearson_rho
 
 PAPER_TABLE4: tuple[dict[str, Any], ...] = (
     {"system": "vRTHS with contact", "features": "1", "r_train": 0.995, "r_test": 0.993,
@@ -73,19 +73,12 @@ class ProtocolRow:
         return dict(self.__dict__)
 
 
-def _log_rho(a: np.ndarray, t: np.ndarray) -> float:
-    """ρ on the log10 scale (predictions ≤ 0 clamped to 10⁻⁶; NaN for targets ≤ 0)."""
-    if np.any(t <= 0):
-        return float("nan")
-    return pearson_rho(np.log10(np.maximum(a, 1e-6)), np.log10(t))
-
-
 def _members_rho(model: FidelityANN, X: Any, y: np.ndarray
                  ) -> tuple[list[float], float, float, list[float]]:
     outs = model.predict_members(X, warn=False)
     mean = combine_members(outs, model.combine)
     return ([pearson_rho(o, y) for o in outs], pearson_rho(mean, y), mse(mean, y),
-            [_log_rho(o, y) for o in outs])
+            [log10_rho(o, y) for o in outs])
 
 
 def fit_and_score(X: Any, y: np.ndarray, system: str, features: int, *, seed: int = 0,
@@ -107,7 +100,7 @@ def fit_and_score(X: Any, y: np.ndarray, system: str, features: int, *, seed: in
     row = ProtocolRow(system, features, len(model.indices["train"]), len(te),
                       float(np.median(rt)), float(np.min(rt)), float(np.median(rte)),
                       float(np.min(rte)), sc["r_test"], sc["mse_test"],
-                      model.topology.label(), note, list(rte), [_log_rho(o, yt) for o in outs])
+                      model.topology.label(), note, list(rte), [log10_rho(o, yt) for o in outs])
     return model, row
 
 

@@ -20,20 +20,8 @@ from typing import Any
 import numpy as np
 
 from .estimator import FidelityANN, combine_members
-from .scores import mse, pearson_rho
-
-
-def _log_rho(a: np.ndarray, t: np.ndarray) -> float:
-    if a.size < 2 or np.any(t <= 0):
-        return float("nan")
-    return pearson_rho(np.log10(np.maximum(a, 1e-12)), np.log10(t))
-
-
-def _med_worst(values: list[float]) -> dict[str, float]:
-    v = np.asarray([x for x in values if np.isfinite(x)], dtype=float)
-    if v.size == 0:
-        return {"median": float("nan"), "worst": float("nan")}
-    return {"median": float(np.median(v)), "worst": float(np.min(v))}
+from .protocol import in_range
+from .scores import log10_rho, median_worst, mse, pearson_rho
 
 
 def scores_of(pred: np.ndarray, outs: np.ndarray | None, y: np.ndarray,
@@ -43,12 +31,12 @@ def scores_of(pred: np.ndarray, outs: np.ndarray | None, y: np.ndarray,
     ok = np.isfinite(pred) & np.isfinite(y)
     p, t, ins = pred[ok], y[ok], inside[ok]
     res: dict[str, Any] = {"n": int(ok.sum()), "r": pearson_rho(p, t) if p.size > 1 else
-                           float("nan"), "r_log10": _log_rho(p, t),
+                           float("nan"), "r_log10": log10_rho(p, t),
                            "mse": mse(p, t) if p.size else float("nan")}
     if outs is not None:
         o = outs[:, ok]
-        res["members"] = _med_worst([pearson_rho(m, t) for m in o])
-        res["members_log10"] = _med_worst([_log_rho(m, t) for m in o])
+        res["members"] = median_worst([pearson_rho(m, t) for m in o])
+        res["members_log10"] = median_worst([log10_rho(m, t) for m in o])
     res["share_outside"] = float(1.0 - ins.mean()) if ins.size else float("nan")
     res["n_in_range"] = int(ins.sum())
     res["r_in_range"] = pearson_rho(p[ins], t[ins]) if ins.sum() > 1 else float("nan")
@@ -62,8 +50,7 @@ def score_report(model: FidelityANN, X: Any, y: np.ndarray, groups: Any = None
     y = np.asarray(y, dtype=float).ravel()
     outs = model.predict_members(X, warn=False)
     pred = combine_members(outs, model.combine)
-    x = X.to_numpy(dtype=float) if hasattr(X, "to_numpy") else np.asarray(X, dtype=float)
-    inside = ~model.raw_range.outside(x).any(axis=1)
+    inside = in_range(model, X)
     res = scores_of(pred, outs, y, inside)
     if groups is not None:
         g = np.asarray(groups).astype(str)

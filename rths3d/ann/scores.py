@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 
@@ -27,3 +29,20 @@ def mse(a: np.ndarray, t: np.ndarray) -> float:
     a = np.asarray(a, dtype=float).ravel()
     t = np.asarray(t, dtype=float).ravel()
     return float(np.mean((a - t) ** 2))
+
+
+def log10_rho(a: np.ndarray, t: np.ndarray) -> float:
+    """ρ on the log10 scale (predictions ≤ 0 clamped to 10⁻⁶; NaN for targets ≤ 0)."""
+    a = np.asarray(a, dtype=float).ravel()
+    t = np.asarray(t, dtype=float).ravel()
+    if np.any(t <= 0):
+        return float("nan")
+    return pearson_rho(np.log10(np.maximum(a, 1e-6)), np.log10(t))
+
+
+def median_worst(values: Any) -> dict[str, float]:
+    """``{"median", "worst"}`` of scores (ρ: worst is the smallest), NaNs left out."""
+    v = np.asarray([x for x in values if np.isfinite(x)], dtype=float)
+    if v.size == 0:
+        return {"median": float("nan"), "worst": float("nan")}
+    return {"median": float(np.median(v)), "worst": float(np.min(v))}

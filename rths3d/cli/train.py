@@ -11,13 +11,6 @@ from ._app import app, json_line, warn_implausible
 from ._output import Keeper, check_file
 
 
-def _med_worst(values: list[float]) -> dict[str, float]:
-    import numpy as np
-
-    v = np.asarray(values, dtype=float)
-    return {"median": float(np.median(v)), "worst": float(np.min(v))}
-
-
 @app.command()
 def train(
     tables: list[Path] = typer.Argument(..., metavar="table",
@@ -90,6 +83,7 @@ def train(
     if len(y) < 10:
         raise ConfigError("table", f"{len(y)} usable rows", "need at least 10 finished tests")
     from ..ann import FidelityANN, parse_topologies  # torch: after the cheap checks
+    from ..ann.scores import median_worst
 
     model = FidelityANN(topologies=parse_topologies(topologies), n_trainings=trainings,
                         seed=seed, transform=transform, bypass=bypass, combine=combine)
@@ -104,8 +98,8 @@ def train(
            "features": chosen if isinstance(chosen, int) else list(chosen), "model": str(saved),
            "extra": [c for c in X.columns if c.startswith(PARAM)],
            "combine": model.combine,
-           "r_test_members": _med_worst(sc["members_r_test"]),
-           "r_train_members": _med_worst(sc["members_r_train"]),
+           "r_test_members": median_worst(sc["members_r_test"]),
+           "r_train_members": median_worst(sc["members_r_train"]),
            "search": [{"hidden": list(s.hidden), "mean_val_mse": s.mean_val_mse}
                       for s in model.search]}
     if plot:
