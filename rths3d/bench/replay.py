@@ -185,7 +185,7 @@ class BenchReplay:
         lf[N - 1] = sim._legs_f
         ft[N - 1] = sim.fts_reading
         pose = plate_pose(q, sim._hh)
-        home = sim._home
+        enc = sim.encoder_lengths(lq)
         out = []
         for k in range(K):
             d: dict[str, np.ndarray] = {}
@@ -195,7 +195,7 @@ class BenchReplay:
             for j, dof in enumerate(DOFS):
                 d[f"pose_meas.{dof}"] = pose[:, k, j]
             for i in range(6):
-                d[f"leg_len.{i}"] = lq[:, k, i] + home[i] - sim._bias[k, i]
+                d[f"leg_len.{i}"] = enc[:, k, i]
                 d[f"leg_force.{i}"] = lf[:, k, i] - sim.rest_leg_forces[k, i]
             for j, c in enumerate(WRENCH):
                 d[f"fts.{c}"] = ft[:, k, j]

@@ -839,9 +839,13 @@ class PlatformBatch:
 
     @property
     def leg_lengths(self) -> np.ndarray:
-        """Leg lengths the encoders read (K, 6), m: home length + piston extension − the
-        set-point bias the encoders do not see."""
-        return self._home + self._qpos[:, self.ids.slide_qpos] - self._bias
+        """Leg lengths the encoders read (K, 6), m (:meth:`encoder_lengths` of now)."""
+        return self.encoder_lengths(self._legs_q)
+
+    def encoder_lengths(self, q: np.ndarray) -> np.ndarray:
+        """What the encoders read for piston extensions ``q`` (…, K, 6) of these tests, m:
+        home length + extension − the set-point bias the encoders do not see."""
+        return q + (self._home - self._bias)
 
     @property
     def leg_commands(self) -> np.ndarray:

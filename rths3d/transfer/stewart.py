@@ -104,8 +104,6 @@ class StewartTransfer:
 
         home = np.array([0.0, 0.0, self.home_height, 1.0, 0.0, 0.0, 0.0])
         sim = self.sim
-        home_len = np.asarray(g.home_leg_lengths())
-        bias = sim._bias.copy()
         rest = sim.rest_leg_forces
         self.signals = (
             RecordSignal("pose_cmd", DOFS, self.pose_cmd),
@@ -113,7 +111,7 @@ class StewartTransfer:
                 lambda q: plate_pose(q, self.home_height), sig("pose_meas", DOFS),
                 [s + 1 for s in seeds]), home),
             RecordSignal("leg_len", LEGS, sim._legs_q, _noisy(
-                lambda q: q + (home_len - bias)[None], sig("leg_len", LEGS),
+                sim.encoder_lengths, sig("leg_len", LEGS),
                 [s + 2 for s in seeds]), np.zeros(6)),
             RecordSignal("leg_force", LEGS, sim._legs_f, _noisy(
                 lambda f: f - rest[None], sig("leg_force", LEGS), [s + 3 for s in seeds]),
