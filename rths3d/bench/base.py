@@ -102,11 +102,6 @@ class Bench:
         return float(self.platform.actuator.kp)
 
     @property
-    def physics_step(self) -> float:
-        """MuJoCo timestep (s)."""
-        return float(self.platform.timestep)
-
-    @property
     def fts_height(self) -> float:
         """Height of the FTS site above the plate frame (m)."""
         return float(self.platform.geometry.fts_height)
@@ -191,10 +186,6 @@ class Bench:
         """Measurement noise, in multiples of each channel's nominal σ."""
         return float(sum(e.value for _, e in self.active("noise")))
 
-    def sensor_values(self) -> dict[str, float]:
-        """Sensor-stage effects on the measured interface force: name → value."""
-        return {e.name: e.value for _, e in self.active("sensor")}
-
     def setpoint_values(self) -> dict[str, np.ndarray]:
         """Set-point effects: name → value per leg (6,) (the off value on other legs)."""
         out: dict[str, np.ndarray] = {}
@@ -205,15 +196,6 @@ class Bench:
             else:
                 v[e.leg] = e.value
         return out
-
-    def structure(self) -> tuple:
-        """What must be equal for benches stepped together: which set-point blocks act,
-        whether the FTS is miscalibrated, the sensor blocks, the model structure's effects
-        (a spec effect that adds a body or geom) and the geometry being moved."""
-        names = sorted({(eff.stage, e.name) for eff, e in self.active()
-                        if eff.stage in ("setpoint", "sensor", "noise", "fts")
-                        or e.name == "fixture_mass"})
-        return tuple(names)
 
     def label(self) -> str:
         """Short description: the effects that are on."""

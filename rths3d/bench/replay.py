@@ -126,7 +126,7 @@ class BenchReplay:
         for i, b in enumerate(benches):
             # one batch per model structure: the set-point, sensor and FTS blocks of the
             # benches are united (each bench's own at their off values pass exactly)
-            key = any(e.name == "fixture_mass" for _, e in b.active())
+            key = any(eff.structural for eff, _ in b.active())
             groups.setdefault((key,), []).append(i)
         out: list[dict[str, np.ndarray] | None] = [None] * len(benches)
         for idx in groups.values():

@@ -107,6 +107,9 @@ class Effect:
     """The axes it may act along (empty: it has no axis)."""
     lti: ClassVar[bool] = False
     """It applies to the 1-D chain transfer systems too (delay, lag, sensor effects)."""
+    structural: ClassVar[bool] = False
+    """It changes the model's structure (adds a body or geom): benches with and without it
+    are not stepped together."""
     late: ClassVar[bool] = False
     """Applied after the other effects of its stage (e.g. a compliance in series with the
     servo acts on the servo's gain as the other effects left it)."""

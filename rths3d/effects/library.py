@@ -11,7 +11,7 @@ Spec-stage hooks address the bench's MuJoCo model by the names of
 :mod:`rths3d.platform.model` (``leg{i}_slide``, ``leg{i}``, ``fts_body``, site ``fts``) and of
 the part (:mod:`rths3d.experiment`: the joint ``exp_heave``, the surface ``exp_surface``, the
 part's root body ``ctx.payload_body``); ``ctx`` (the :class:`~rths3d.bench.Bench`) gives the
-nominal values (``kp``, ``physics_step``).
+nominal values (``kp``).
 """
 
 from __future__ import annotations
@@ -198,6 +198,7 @@ class FixtureMass(Effect):
                   "uncompensated payload mass between force sensor and part")
     description = "Payload (adapter) mass on the FTS that the model leaves out."
     signature = "force residual ∝ acceleration (and gravity in the untared wrench)"
+    structural = True  # an extra body on the plate
 
     def apply_spec(self, spec, value, ctx, leg, axis):
         import mujoco

@@ -146,7 +146,7 @@ class StewartTransfer:
         effects = sorted({name for name, _, v in effect_labels(s)
                           if not get_effect(name).is_off(v) and
                           (get_effect(name).stage in ("setpoint", "fts", "sensor", "noise")
-                           or name == "fixture_mass")})
+                           or get_effect(name).structural)})
         return (compensator_key(s), setting(s, "transfer.substeps", 1),
                 s.get("transfer.integrator", "RK4"),
                 part_class(s.get("experiment.kind", "contact")).batch_key(s), sensor_key(s),
