@@ -107,8 +107,8 @@ def test_leg_delay_effect_moves_the_fei_delay_by_its_value(contact):
 
 
 def test_lti_path_takes_delay_and_sensor_effects():
-    """On the ideal transfer system the delay effect delays z' by exactly its samples and the
-    FTS low-pass lags the force; a per-leg effect is listed as ignored."""
+    """On the ideal transfer system the delay effect delays z' by exactly its samples; a
+    per-leg effect, which a 1-D chain cannot carry, is listed as ignored."""
     sc = load_scene("paper_linear", ["duration=0.5", "transfer.kind='ideal'",
                                      "effect.delay=0.003", "effect.backlash.leg2=1e-5"])
     rec = run(sc, reference=False).record

@@ -597,6 +597,7 @@ class PlatformBatch:
         set-points pass the set-point effects (allocation-free: it runs every step). None:
         the inverse kinematics of the poses."""
         self._all = np.arange(nsim)
+        self._ids = self._all
         self._wrows: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self.stopped = np.zeros(nsim, dtype=bool)
         self.reasons = [""] * nsim
@@ -673,6 +674,7 @@ class PlatformBatch:
         self.poses[:] = 0.0
         self.stopped[:] = False
         self._any_stopped = False
+        self._ids = self._all
         self._run[:] = True
         self.reasons = [""] * self.nsim
         self.stops = [None] * self.nsim
@@ -719,6 +721,7 @@ class PlatformBatch:
             self.stops[k] = stop
             self.stopped[k] = True
             self._run[k] = False
+            self._ids = self._all[self._run]  # the tests still stepped (once per stop)
             self.reasons[k] = stop.reason
             self.stop_time[k] = stop.t
 
@@ -779,8 +782,8 @@ class PlatformBatch:
             self._command_limits(self._L - self._home, self._L - self._Lprev)
         y = sp if self.setpoint_chain.empty else self.setpoint_chain(sp)
         run = self._run
-        ids = None if not self._any_stopped else self._all[run]
-        if ids is not None and not run.any():
+        ids = self._ids if self._any_stopped else None
+        if ids is not None and not ids.size:
             self.k += 1
             return
         ramp_ctrl(y, self._off, self._bias, self._cprev, self._cnew, self._ctrl, self._a0,
