@@ -35,6 +35,9 @@ from ..errors import ConfigError
 from .geometry import DEFAULT_GEOMETRY, StewartGeometry
 
 __all__ = [
+    "FEEDFORWARDS",
+    "HOLDS",
+    "SAMPLES",
     "ActuatorConfig",
     "PlatformConfig",
     "build_model",
@@ -42,6 +45,14 @@ __all__ = [
     "model_xml",
     "predicted_delay",
 ]
+
+
+HOLDS = ("ramp", "zoh")
+"""Set-point holds over an interface step: first-order (ramp) or zero-order."""
+SAMPLES = ("end", "start")
+"""Sampling instants of the bench's channels within an interface step."""
+FEEDFORWARDS = ("backward", "central", "none")
+"""Difference forms of the velocity feed-forward."""
 
 
 def _check(name: str, value: float, ok: bool, limit: str) -> None:
@@ -78,6 +89,18 @@ class ActuatorConfig:
     stroke, velocity_limit, force_limit:
         Override the geometry's total stroke (m), piston-speed limit (m/s) and actuator-force
         limit (N); ``None`` takes the geometry's values.
+    hold:
+        How the servo's set-point is held over an interface step: ``"ramp"`` (first-order
+        hold, interpolated from c_k to c_{k+1}; today's bench) or ``"zoh"`` (zero-order hold:
+        c_{k+1} from the start of the step).
+    sample:
+        When the bench samples its channels: ``"end"`` of the interface step (t_{k+1}, after
+        the new set-point acted; today's bench) or ``"start"`` (t_k, before it acts: every
+        measured channel one sample earlier).
+    feedforward:
+        Difference form of the velocity feed-forward when ``velocity_ff`` is on:
+        ``"backward"`` ((L_{k+1} − L_k)/ΔT, today's), ``"central"`` ((L_{k+2} − L_k)/(2ΔT),
+        needs the next set-point: a planned trajectory or a replay) or ``"none"``.
     """
 
     kp: float = 2.0e5
@@ -89,8 +112,15 @@ class ActuatorConfig:
     stroke: float | None = None
     velocity_limit: float | None = None
     force_limit: float | None = None
+    hold: str = "ramp"
+    sample: str = "end"
+    feedforward: str = "backward"
 
     def __post_init__(self) -> None:
+        for name, allowed in (("hold", HOLDS), ("sample", SAMPLES),
+                              ("feedforward", FEEDFORWARDS)):
+            v = getattr(self, name)
+            _check(f"controller.{name}", v, v in allowed, "one of " + " | ".join(allowed))
         _check("actuator.kp", self.kp, math.isfinite(self.kp) and self.kp > 0,
                "must be > 0 N/m")
         _check("actuator.kv", self.kv, math.isfinite(self.kv) and self.kv >= 0,
