@@ -21,9 +21,11 @@ import numpy as np
 from .config import FEEDFORWARD, GRAVITY, HOLD, SAMPLE, ControllerConfig, PlatformDescription
 from .errors import ConfigError
 from .platform.geometry import DEFAULT_GEOMETRY, StewartGeometry
+from .record import DOFS
 
-__all__ = ["CONTROLLER_KEYS", "PLATFORM_KEYS", "controller_dict", "controller_table",
-           "platform_dict", "platform_geometry", "platform_table"]
+__all__ = ["CONTROLLER_KEYS", "PLATFORM_KEYS", "bench_origin", "bench_scene_text",
+           "controller_dict", "controller_table", "experiment_extra", "platform_dict",
+           "platform_geometry", "platform_table"]
 
 PATTERN = ("base_radius", "top_radius", "base_gap", "top_gap", "base_angle")
 """Geometry parameters of the parametric anchor pattern."""
@@ -135,6 +137,37 @@ def platform_table(sec: Any) -> PlatformDescription:
     return PlatformDescription(geometry=geom, fts_pose=fts_pose,
                                geometry_file=gfile, given=tuple(k for k in PLATFORM_KEYS
                                                                  if k in sec))
+
+
+def experiment_extra(sec: dict[str, Any], dofs: tuple[str, ...]) -> dict[str, Any]:
+    """Take the fields a shipped part does not use out of the raw ``[experiment]`` table
+    (edited in place): ``com`` (m), ``inertia`` as a tensor (kg·m²), ``file``, ``dofs``
+    (the scene's ``dofs`` for a part that is tested through any, when not given)."""
+    out: dict[str, Any] = {}
+    if "com" in sec:
+        v = sec.pop("com")
+        if not isinstance(v, list | tuple) or len(v) != 3:
+            raise ConfigError("experiment.com", v, "need [x, y, z] in m (sensor frame)")
+        out["com"] = tuple(_number(f"experiment.com[{i}]", x, "m") for i, x in enumerate(v))
+    for key in ("inertia", "inertia_tensor"):
+        if isinstance(sec.get(key), list | tuple):
+            v = sec.pop(key)
+            out["inertia_tensor"] = tuple(_number(f"experiment.inertia[{i}]", x, "kg·m²")
+                                          for i, x in enumerate(v))
+    if "file" in sec:
+        v = sec.pop("file")
+        if not isinstance(v, str) or not v:
+            raise ConfigError("experiment.file", v, "must be a path (string)")
+        out["file"] = v
+    v = sec.pop("dofs", list(dofs))
+    if isinstance(v, str):
+        v = [v]
+    if not isinstance(v, list | tuple) or any(not isinstance(d, str) for d in v):
+        raise ConfigError("experiment.dofs", v, f"must be a list of DOFs from {', '.join(DOFS)}")
+    if v:
+        out["dofs"] = tuple(d for d in DOFS if d in v) if all(d in DOFS for d in v) \
+            else tuple(v)
+    return out
 
 
 def platform_geometry(desc: PlatformDescription) -> StewartGeometry:
