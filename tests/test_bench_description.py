@@ -369,3 +369,22 @@ def test_cli_bad_input_exits_2_with_one_line(tmp_path, capsys):
         err = capsys.readouterr().err.strip()
         assert e.value.code == 2, err
         assert err.count("\n") == 0 and field in err and "Traceback" not in err
+
+
+def test_diagnose_header_names_what_came_from_the_scene():
+    """`rths3d diagnose` first names which parts of the bench came from the scene (here
+    the stroke, a zero-order hold, an off-axis payload) and which are defaults (geometry,
+    the other conventions), and says when no scene was there and which default it uses."""
+    from rths3d.cli.diagnose import _bench_origin
+
+    sc = scene_from_dict(_six_dof_raw({"kind": "rigid", "m": 4.0, "com": [0.02, 0, 0.04]},
+                                      platform={"stroke": 0.08},
+                                      controller={"hold": "zoh"}))
+    lines = _bench_origin(sc, "my.toml", {})
+    assert lines[0] == "bench from the scene my.toml"
+    assert "geometry: today's default" in lines[1] and "stroke from the scene" in lines[1]
+    assert "hold = zoh" in lines[2] and "hold from the scene's [controller]" in lines[2]
+    assert "sample = end" in lines[2] and "part: rigid" in lines[3]
+    lines = _bench_origin(load_scene("paper_contact"), None, {"scene": "x"})
+    assert "no scene" in lines[0] and "'paper_contact'" in lines[0]
+    assert "today's default" in lines[1] and "conventions today's default" in lines[2]
