@@ -193,7 +193,8 @@ class MjcfPart(ExperimentalPart):
                 "m_exp": float(self._matrix()[0, 0]), "k_exp": k_exp, "m_exp_matrix": m_exp,
                 "d_exp": 0.0, "c_exp": self.damping_matrix(), "h0": None,
                 "k_contact": None, "d_contact": None,
-                "model": "MuJoCo (prescribed mount off the platform): no numpy twin"}
+                "model": "MuJoCo only, no numpy twin (on the platform, or behind a prescribed "
+                         "mount for the 1-D transfer systems and the reference)"}
 
     @classmethod
     def batch_key(cls, settings: Mapping[str, Any]) -> Hashable:
