@@ -36,6 +36,8 @@ CONTROLLER_KEYS = ("kp", "kv", "timeconst", "delay", "hold", "sample", "feedforw
                    "gravity")
 _SHARED = ("kp", "kv", "timeconst", "delay")
 """[controller] keys that today's [transfer] table also has."""
+_RANGES = {"kp": (0.0, 1e9, "N/m"), "kv": (0.0, 1e7, "N·s/m"), "timeconst": (0.0, 1.0, "s"),
+           "delay": (0.0, 0.5, "s")}
 
 
 def _number(field: str, v: Any, unit: str) -> float:
@@ -194,8 +196,11 @@ def controller_table(sec: Any, transfer: dict[str, Any]) -> ControllerConfig:
         if key not in sec:
             continue
         v = sec[key]
-        if isinstance(v, bool) or not isinstance(v, int | float):
-            raise ConfigError(f"controller.{key}", v, "must be a number (SI units)")
+        lo, hi, unit = _RANGES[key]
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) \
+                or not (v > lo if key == "kp" else v >= lo) or v > hi:
+            raise ConfigError(f"controller.{key}", v, f"must be {'>' if key == 'kp' else '>='}"
+                              f" {lo:g} and <= {hi:g} {unit}")
         if key in transfer and transfer[key] != v:
             raise ConfigError(f"controller.{key}", v, f"differs from transfer.{key} = "
                               f"{transfer[key]!r} (set it in one table)")

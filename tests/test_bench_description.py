@@ -323,6 +323,8 @@ BAD = [
     ({"platform": {"fts_pose": [0, 0, -0.01, 0, 0, 0]}}, "platform.fts_pose[2]"),
     ({"platform": {"wheels": 4}}, "platform.wheels"),
     ({"controller": {"hold": "foh"}}, "controller.hold"),
+    ({"controller": {"kp": -2e5}}, "controller.kp"),
+    ({"controller": {"delay": 0.9}}, "controller.delay"),
     ({"controller": {"kp": 3e5}, "transfer": {"kind": "stewart", "kp": 2e5}}, "controller.kp"),
     ({"controller": {"feedforward": "central"},
       "transfer": {"kind": "stewart", "velocity_ff": False}}, "controller.feedforward"),
