@@ -189,6 +189,21 @@ def test_rigid_payload_off_axis_static_wrench():
     assert abs(got[2] / (m * G) - 1) < 1e-5
 
 
+def test_fts_pose_moves_and_tilts_the_sensor():
+    """An FTS mounted 50 mm off-axis, 40 mm above the plate and tilted by 0.1 rad about y:
+    the site sits there in the model, and at rest the sensor reads the payload's weight in
+    its tilted frame, m·g·(−sin 0.1, 0, cos 0.1) (computed here)."""
+    m, ry = 2.0, 0.1
+    sc = scene_from_dict(_six_dof_raw({"kind": "rigid", "m": m, "com": [0.0, 0.0, 0.03]},
+                                      platform={"fts_pose": [0.05, 0.0, 0.04, 0.0, ry, 0.0]}))
+    model = Bench.from_scene(sc).model()
+    np.testing.assert_allclose(model.site("fts").pos, [0.05, 0.0, 0.04], atol=1e-12)
+    rec = run(sc, reference=False).record
+    f = np.array([rec.columns[f"fts.{k}"][-1] for k in ("fx", "fy", "fz")])
+    np.testing.assert_allclose(f, m * G * np.array([-math.sin(ry), 0.0, math.cos(ry)]),
+                               atol=2e-3)
+
+
 BLOCK = 0.5
 """Mass of the test's block (kg)."""
 
