@@ -44,6 +44,7 @@ from .record import DOFS
 from .scene_bench import (
     controller_dict,
     controller_table,
+    experiment_extra,
     platform_dict,
     platform_geometry,
     platform_table,
@@ -249,7 +250,7 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
     if part_cls.dofs and "dofs" in exp_sec:
         raise ConfigError("experiment.dofs", exp_sec["dofs"], f"the {exp_sec['kind']} part "
                           f"is tested through {list(part_cls.dofs)}: set the scene's dofs")
-    extra = _experiment_extra(exp_sec, dofs if not part_cls.dofs else ())
+    extra = experiment_extra(exp_sec, dofs if not part_cls.dofs else ())
     pos = {"lo": 0.0, "lo_open": True}
     nonneg = {"lo": 0.0}
     exp = _build(ExperimentConfig, "experiment", exp_sec, {
@@ -360,36 +361,6 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
                  transfer=tr, sensor=sen, safety=saf, dt=dt, duration=duration, source=source,
                  effects=effects, platform=platform, controller=controller)
 
-
-def _experiment_extra(sec: dict[str, Any], dofs: tuple[str, ...]) -> dict[str, Any]:
-    """Take the fields a shipped part does not use out of the raw ``[experiment]`` table
-    (edited in place): ``com`` (m), ``inertia`` as a tensor (kg·m²), ``file``, ``dofs``
-    (the scene's ``dofs`` for a part that is tested through any, when not given)."""
-    out: dict[str, Any] = {}
-    if "com" in sec:
-        v = sec.pop("com")
-        if not isinstance(v, list | tuple) or len(v) != 3:
-            raise ConfigError("experiment.com", v, "need [x, y, z] in m (sensor frame)")
-        out["com"] = tuple(_num(f"experiment.com[{i}]", x, unit="m") for i, x in enumerate(v))
-    for key in ("inertia", "inertia_tensor"):
-        if isinstance(sec.get(key), list | tuple):
-            v = sec.pop(key)
-            out["inertia_tensor"] = tuple(_num(f"experiment.inertia[{i}]", x, unit="kg·m²")
-                                          for i, x in enumerate(v))
-    if "file" in sec:
-        v = sec.pop("file")
-        if not isinstance(v, str) or not v:
-            raise ConfigError("experiment.file", v, "must be a path (string)")
-        out["file"] = v
-    v = sec.pop("dofs", list(dofs))
-    if isinstance(v, str):
-        v = [v]
-    if not isinstance(v, list | tuple) or any(not isinstance(d, str) for d in v):
-        raise ConfigError("experiment.dofs", v, f"must be a list of DOFs from {', '.join(DOFS)}")
-    if v:
-        out["dofs"] = tuple(d for d in DOFS if d in v) if all(d in DOFS for d in v) \
-            else tuple(v)
-    return out
 
 
 EFFECT_KEYS = ("name", "value", "leg", "axis")

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..config import ExperimentConfig
 from ..errors import ConfigError
-from .base import ExperimentalPart, register_part
+from .base import NO_TWIN, ExperimentalPart, register_part
 
 PREFIX = "part_"
 WORLD = "world_"
@@ -193,7 +193,7 @@ class MjcfPart(ExperimentalPart):
                 "m_exp": float(self._matrix()[0, 0]), "k_exp": k_exp, "m_exp_matrix": m_exp,
                 "d_exp": 0.0, "c_exp": self.damping_matrix(), "h0": None,
                 "k_contact": None, "d_contact": None,
-                "model": "MuJoCo (prescribed mount off the platform): no numpy twin"}
+                "model": NO_TWIN}
 
     @classmethod
     def batch_key(cls, settings: Mapping[str, Any]) -> Hashable:
