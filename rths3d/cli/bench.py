@@ -149,3 +149,6 @@ def init(
         tmp.unlink(missing_ok=True)
     write_text(out, text)
     typer.echo(f"scene {out}")
+    if feedforward == "central":
+        typer.echo("note: a central feed-forward needs the next set-point: the scene "
+                   "describes a bench for the diagnosis' replay, not for a closed-loop run")
