@@ -405,3 +405,22 @@ def test_diagnose_header_names_what_came_from_the_scene():
     lines = _bench_origin(load_scene("paper_contact"), None, {"scene": "x"})
     assert "no scene" in lines[0] and "'paper_contact'" in lines[0]
     assert "today's default" in lines[1] and "conventions today's default" in lines[2]
+
+
+@pytest.mark.parametrize("xml,word", [
+    ("<mujoco><worldbody><body name='a'>", "not valid XML"),
+    ("<mujoco><worldbody><body name='world_floor'/></worldbody></mujoco>", "no body to mount"),
+    ("<mujoco><worldbody><body name='a'><geom size='0.1'/></body></worldbody>"
+     "<actuator/></mujoco>", "<actuator> is not allowed"),
+    ("<mujoco><worldbody><body name='a'><geom type='box' size='0.1'/></body></worldbody>"
+     "</mujoco>", "MuJoCo rejects the part"),
+])
+def test_bad_mjcf_part_names_the_file(tmp_path, xml, word):
+    """A part file MuJoCo or the convention cannot take is one error naming
+    experiment.file and what is wrong."""
+    f = tmp_path / "p.xml"
+    f.write_text(xml)
+    with pytest.raises(ConfigError) as e:
+        scene_from_dict(_contact_raw(experiment={"kind": "mjcf", "file": str(f)}))
+    assert e.value.field == "experiment.file" and word in str(e.value)
+    assert "\n" not in str(e.value)
