@@ -13,6 +13,7 @@ Single-DOF substructures may give scalars ``m, c, k`` instead of matrices ``M, C
 from __future__ import annotations
 
 import math
+import os
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, fields, replace
@@ -557,7 +558,7 @@ def _relative_to(raw: dict[str, Any], folder: Path) -> dict[str, Any]:
         if isinstance(tab, Mapping) and isinstance(tab.get(key), str) and tab[key]:
             f = Path(tab[key]).expanduser()
             if not f.is_absolute():
-                raw = {**raw, sec: {**tab, key: str(folder.resolve() / f)}}
+                raw = {**raw, sec: {**tab, key: os.path.normpath(folder.resolve() / f)}}
     return raw
 
 

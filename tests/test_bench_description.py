@@ -424,3 +424,37 @@ def test_bad_mjcf_part_names_the_file(tmp_path, xml, word):
         scene_from_dict(_contact_raw(experiment={"kind": "mjcf", "file": str(f)}))
     assert e.value.field == "experiment.file" and word in str(e.value)
     assert "\n" not in str(e.value)
+
+
+def test_bench_init_from_files_names_them_beside_the_scene(tmp_path):
+    """`rths3d bench init --geometry-file … --part-file …` writes the two paths relative to
+    the scene's folder, and the scene loads them from wherever it is run."""
+    import os
+
+    from typer.testing import CliRunner
+
+    from rths3d.cli import app
+    from rths3d.platform.calibration import CalibratedGeometry
+
+    (tmp_path / "cal").mkdir()
+    (tmp_path / "scenes").mkdir()
+    geom = CalibratedGeometry.from_nominal(leg_offsets=np.full(6, 1e-3))
+    (tmp_path / "cal" / "g.json").write_text(json.dumps(geom.to_dict()))
+    part = _mjcf_part(tmp_path)
+    out = tmp_path / "scenes" / "b.toml"
+    res = CliRunner().invoke(app, [
+        "bench", "init", str(out), "--geometry-file", str(tmp_path / "cal" / "g.json"),
+        "--stroke", "0.12", "--part-file", str(part), "--dofs", "z", "--gravity", "none"])
+    assert res.exit_code == 0, res.output
+    text = out.read_text()
+    assert 'geometry_file = "../cal/g.json"' in text and 'file = "../part.xml"' in text
+    cwd = os.getcwd()
+    try:
+        os.chdir(tmp_path / "cal")
+        sc = load_scene(out)
+    finally:
+        os.chdir(cwd)
+    assert sc.platform.geometry.leg_offsets() == pytest.approx(np.full(6, 1e-3))
+    assert sc.platform.geometry.stroke == 0.12 and sc.dofs == ("z",)
+    assert sc.experiment.file == str(part.resolve()) and sc.controller.gravity == "none"
+    assert platform_config(sc).actuator.gravity_comp is False
