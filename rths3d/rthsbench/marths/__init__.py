@@ -17,6 +17,7 @@ from .engine import (
     reference_signals,
     rodeac_initial,
     run_marths,
+    stored_initial,
     structure,
 )
 from .model import (
@@ -39,7 +40,7 @@ __all__ = [
     "flat_keys", "frame_to_actuator", "ideal_physical", "load_record",
     "load_reference_matrices", "marths_criteria", "newmark_matrices", "newmark_response",
     "offline_calibration", "partition", "perturbed_plants", "reference_signals", "report",
-    "rodeac_initial", "run_marths", "specimen", "structure",
+    "rodeac_initial", "run_marths", "specimen", "stored_initial", "structure",
 ]
 
 

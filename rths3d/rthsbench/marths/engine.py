@@ -28,11 +28,12 @@ from ...errors import ConfigError, SafetyStop
 from ...lti import GroundMotion
 from . import kernels
 from .criteria import marths_criteria
-from .data import load_record, load_reference_matrices, record_name
+from .data import data_dir, load_record, load_reference_matrices, record_name
 from .model import COUPLER, Partition, newmark_matrices, newmark_response, partition, specimen
 from .plant import NOMINAL, PlantZPK
 
-__all__ = ["MarthsConfig", "MarthsResult", "rodeac_initial", "run_marths", "structure"]
+__all__ = ["INITIALS", "MarthsConfig", "MarthsResult", "default_config", "rodeac_initial",
+           "run_marths", "stored_initial", "structure"]
 
 INITIAL_FILE = Path(__file__).with_name("rodeac_initial.json")
 
@@ -132,17 +133,33 @@ def rodeac_initial() -> tuple[tuple[float, ...], tuple[float, ...]]:
     return th, p0
 
 
-def default_config(name: str, params: Mapping[str, Any] | None = None) -> Any:
-    """Compensator ``name``'s config with ``params``; for ``rodeac`` θ₀ and P₀ default to the
-    project's calibration (:func:`rodeac_initial`)."""
+def stored_initial(data_path: str | None = None
+                   ) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """θ₀ (2 × 4) and P₀ (2 × 16) as the benchmark stores them (``Initial_parameters.mat``,
+    read from the benchmark folder's ``data/controller_rodeac.json``)."""
+    d = json.loads((data_dir(data_path) / "data" / "controller_rodeac.json").read_text())
+    th = tuple(float(v) for a in ("act1", "act2") for v in d[f"theta0_{a}"])
+    p0 = tuple(float(v) for a in ("act1", "act2") for row in d[f"P0_{a}"] for v in row)
+    return th, p0
+
+
+INITIALS = ("stored", "calibrated")
+
+
+def default_config(name: str, params: Mapping[str, Any] | None = None,
+                   initial: str = "stored", data_path: str | None = None) -> Any:
+    """Compensator ``name``'s config with ``params``; for ``rodeac`` θ₀ and P₀ not given in
+    ``params`` come from ``initial``: ``stored`` (the benchmark's own, :func:`stored_initial`)
+    or ``calibrated`` (the project's calibration, :func:`rodeac_initial`)."""
     from ...compensation import config_from_dict
 
     p = {k: (list(v) if isinstance(v, tuple) else v) for k, v in dict(params or {}).items()}
-    if name == "rodeac":
-        if "theta0" not in p or "p0" not in p:
-            th, p0 = rodeac_initial()
-            p.setdefault("theta0", list(th))
-            p.setdefault("p0", list(p0))
+    if name == "rodeac" and ("theta0" not in p or "p0" not in p):
+        if initial not in INITIALS:
+            raise ConfigError("initial", initial, "must be stored or calibrated")
+        th, p0 = stored_initial(data_path) if initial == "stored" else rodeac_initial()
+        p.setdefault("theta0", list(th))
+        p.setdefault("p0", list(p0))
     return config_from_dict(name, p)
 
 
@@ -163,7 +180,8 @@ def reference_signals(part: Partition, ag: np.ndarray, dt: float) -> np.ndarray:
 class _Comps:
     """The compensator(s) of a run: one for both channels, or one per actuator."""
 
-    def __init__(self, compensator: Any, params: Any, K: int, dt: float):
+    def __init__(self, compensator: Any, params: Any, K: int, dt: float, initial: str,
+                 data_path: str | None):
         from ...compensation import BaseCompensator, build
 
         if isinstance(compensator, str):
@@ -171,11 +189,11 @@ class _Comps:
             if isinstance(params, (tuple, list)) and len(params) == 2 and not isinstance(
                     params[0], (int, float)):
                 cfgs = [p if not (p is None or isinstance(p, Mapping))
-                        else default_config(name, p) for p in params]
+                        else default_config(name, p, initial, data_path) for p in params]
                 self.comps = [build(name, K, 1, dt, c) for c in cfgs]
             else:
                 c = params if not (params is None or isinstance(params, Mapping)) \
-                    else default_config(name, params)
+                    else default_config(name, params, initial, data_path)
                 self.comps = [build(name, K, 2, dt, c)]
         else:
             comps = list(compensator) if isinstance(compensator, (list, tuple)) \
@@ -233,6 +251,7 @@ class _Comps:
 def run_marths(cfg: MarthsConfig | None = None, compensator: Any = "rodeac",
                params: Any = None, plants: Sequence[PlantZPK] | None = None,
                data_path: str | None = None, gm: GroundMotion | None = None,
+               initial: str = "stored",
                progress: Callable[[int, int], None] | None = None) -> list[MarthsResult]:
     """Run the benchmark for ``plants`` (default: the nominal plant) with ``compensator``.
 
@@ -240,7 +259,7 @@ def run_marths(cfg: MarthsConfig | None = None, compensator: Any = "rodeac",
     ``params`` (its Config or a mapping of its fields, for both actuators as one K × 2
     compensator; or a pair of them, one K × 1 compensator per actuator), or compensator
     object(s) already built for K plants at ``cfg.dt`` (one with 2 channels, or two with 1).
-    ``rodeac`` without θ₀/P₀ starts from the project's calibration. ``gm`` replaces the
+    ``rodeac`` without θ₀/P₀ starts from ``initial`` (:func:`default_config`). ``gm`` replaces the
     record (its scale becomes ``cfg.intensity``). Returns one :class:`MarthsResult` per plant.
     ``progress(k, N)`` is called every 4096 steps.
     """
@@ -267,7 +286,8 @@ def run_marths(cfg: MarthsConfig | None = None, compensator: Any = "rodeac",
             np.random.default_rng(cfg.noise_seed).standard_normal(N)
     else:
         noise = np.zeros(N)
-    comps = _Comps(compensator, params, K, dt)
+    comps = _Comps(compensator, params, K, dt, initial,
+                   str(data_path) if data_path else None)
     Xp = np.zeros((K, ns))
     U, V, A = np.zeros((K, 29)), np.zeros((K, 29)), np.zeros((K, 29))
     R, Fv = np.zeros(29), np.zeros(29)
