@@ -66,7 +66,8 @@ __all__ = [
     "Compensator", "CompensatorConfig", "InverseCompensator", "InverseConfig", "InverseModel",
     "LeadCompensator", "LeadConfig", "ModelBasedCompensator", "ModelBasedConfig",
     "NoCompensation", "NoneConfig", "PolynomialCompensator", "PolynomialConfig",
-    "RLSCompensator", "RLSConfig", "RoDeACCompensator", "RoDeACConfig", "VelocityCompensator", "VelocityConfig", "WatchConfig",
+    "RLSCompensator", "RLSConfig", "RoDeACCompensator", "RoDeACConfig",
+    "VelocityCompensator", "VelocityConfig", "WatchConfig",
     "build", "compensator_class", "compensator_names", "config_from_dict", "design_inverse",
     "lagrange_weights", "register",
 ]

@@ -152,12 +152,16 @@ def specimen() -> Specimen:
 
 @dataclass(frozen=True)
 class Coupler:
-    """Geometry of the two actuators' attachment on the coupler (m, rad)."""
+    """Geometry of the two actuators' attachment on the coupler: offsets (m) and the angles
+    α (degrees, as ``fcn_coupler_geometry.m`` states them: ±25.4633°, which is atan(y/x)
+    rounded — the rounded value is the benchmark's)."""
 
     xv1: float = 0.26670
     yv1: float = -0.127
     xv2: float = 0.26670
     yv2: float = 0.127
+    alpha1_deg: float = -25.4633
+    alpha2_deg: float = 25.4633
 
     @property
     def dv1(self) -> float:
@@ -169,11 +173,11 @@ class Coupler:
 
     @property
     def alpha1(self) -> float:
-        return math.atan2(self.yv1, self.xv1)
+        return math.radians(self.alpha1_deg)
 
     @property
     def alpha2(self) -> float:
-        return math.atan2(self.yv2, self.xv2)
+        return math.radians(self.alpha2_deg)
 
     def params(self) -> np.ndarray:
         """[d_v1, d_v2, α1, α2] for the kernels."""
