@@ -192,11 +192,13 @@ def test_cli_json_table_plot_and_bad_input(bench_dir, tmp_path):
     p = _cli("--t-end", "12", "--json", "--plot", str(tmp_path / "m.png"))
     assert p.returncode == 0, p.stderr
     out = json.loads(p.stdout)
-    runs = out["runs"]["rodeac"]
-    assert runs["nominal"]["status"] == "ok" and len(runs["nominal"]["J"]) == 10
+    e = out["records"]["ElCentro"]["rodeac"]
+    assert e["status"] == "ok" and sum(len(v) for v in e["J"].values()) == 24
+    assert e["J"]["J4"] == e["J"]["J1"] and out["initial"] == "stored"
     assert (tmp_path / "m.png").stat().st_size > 10_000
-    p = _cli("--t-end", "6", "--compensator", "none")
-    assert p.returncode == 0 and "J2" in p.stdout and "none" in p.stdout
+    p = _cli("--t-end", "6", "--compensator", "none", "--trials", "1")
+    assert p.returncode == 0, p.stderr
+    assert "J2.act1" in p.stdout and "none μ1/1" in p.stdout
     for args, field in ((("--intensity", "-1"), "intensity"),
                         (("--record", "Loma"), "record"),
                         (("--compensator", "magic"), "compensator"),

@@ -29,7 +29,8 @@ from .engine import INITIAL_FILE, MarthsConfig, _grid, structure
 from .model import COUPLER, frame_to_actuator, newmark_matrices, newmark_response
 from .plant import NOMINAL, PlantZPK, perturbed_plants
 
-__all__ = ["Calibration", "open_loop_targets", "open_loop_measured", "offline_calibration"]
+__all__ = ["Calibration", "calibration_record", "compensator_configs", "offline_calibration",
+           "open_loop_measured", "open_loop_targets"]
 
 
 @dataclass(eq=False)
@@ -120,3 +121,39 @@ def main(argv: Sequence[str] | None = None) -> None:
 
 if __name__ == "__main__":
     main()
+
+
+def calibration_record(fs: float = 1024.0, intensity: float = 0.4, noise_seed: int = 123,
+                       noise_cov: float = 1.5e-7, data_path: str | None = None
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """A predefined-displacement record for the project's compensators: the three records'
+    open-loop targets at ``intensity`` (one after the other) sent to the nominal plant, and
+    the measurements; (commands, measurements) (N, 2) in m at the same calls."""
+    xs, ms = [], []
+    std = math.sqrt(noise_cov * fs)
+    for i, rec in enumerate(RECORDS):
+        xt = intensity * open_loop_targets(rec, 1.0, fs, data_path)
+        n = std * np.random.default_rng(noise_seed + 100 + i).standard_normal(xt.shape[0])
+        xs.append(xt)
+        ms.append(open_loop_measured(NOMINAL, xt, fs, n))
+    return 1e-3 * np.concatenate(xs), 1e-3 * np.concatenate(ms)
+
+
+def compensator_configs(name: str, params: dict | None = None, fs: float = 1024.0,
+                        record: tuple[np.ndarray, np.ndarray] | None = None,
+                        data_path: str | None = None) -> tuple:
+    """One config per actuator for compensator ``name``: its defaults with ``params`` then,
+    for compensators with an offline calibration (:data:`rths3d.compensation.CALIBRATIONS`),
+    calibrated per actuator on :func:`calibration_record` (keys given in ``params`` kept)."""
+    from dataclasses import replace
+
+    from ...compensation import CALIBRATIONS, config_from_dict
+
+    params = dict(params or {})
+    config = config_from_dict(name, params)
+    cal = CALIBRATIONS.get(name)
+    if cal is None:
+        return config, config
+    u, zm = record if record is not None else calibration_record(fs, data_path=data_path)
+    keep = {k: getattr(config, k) for k in params}
+    return tuple(replace(cal(u[:, j], zm[:, j], 1.0 / fs, config), **keep) for j in range(2))
