@@ -262,3 +262,28 @@ def test_bad_configuration_names_the_field():
     with pytest.raises(ConfigError, match="rodeac.p0"):
         build("rodeac", 1, 2, DT, {"p0": [1.0, 2.0]})
     assert marths_criteria  # the public name exists (used by the CLI)
+
+
+def test_per_actuator_compensation_allocates_nothing_per_step(peak_bytes):
+    from rths3d.rthsbench.marths.engine import _Comps
+
+    K = 3
+    conf = {"theta0": [1.0, 0.0, 0.0, 0.0], "p0": [1e4]}
+    comps = _Comps("rodeac", (conf, conf), K, DT, "stored", None)
+    z, zd, zm = (1e-3 * np.random.default_rng(i).standard_normal((K, 2)) for i in range(3))
+    comps.bind(z, zd, zm)
+    u = comps.command()
+    assert u.shape == (K, 2) and np.all(np.isfinite(u))
+    assert peak_bytes(lambda: (comps.command(), comps.stopped()), 50) < 4096
+
+
+def test_example_refuses_bad_arguments_in_one_line():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[1] / "examples" / "74_marths_compare.py"
+    out = subprocess.run([sys.executable, str(script), "--trials", "-1"], capture_output=True,
+                         text=True, timeout=300)
+    err = out.stderr.strip().splitlines()
+    assert out.returncode == 2 and len(err) == 1 and err[0].startswith("error: --trials")

@@ -207,27 +207,34 @@ class _Comps:
         self.name = name
         per = len(self.comps) == 2
         self.per_actuator = per
-        self.z = [np.zeros((K, 1)), np.zeros((K, 1))] if per else [np.zeros((K, 2))]
-        self.zd = [np.zeros((K, 1)), np.zeros((K, 1))] if per else [np.zeros((K, 2))]
-        self.zm = [np.zeros((K, 1)), np.zeros((K, 1))] if per else [np.zeros((K, 2))]
         self.u = np.zeros((K, 2))
+        self._stopped = np.zeros(K, dtype=bool)
+        if per:  # (K, 1) inputs per actuator and their 1-D views, made once
+            self.cols = [[np.zeros((K, 1)) for _ in range(3)] for _ in range(2)]
+            self.flat = [[c[:, 0] for c in cols] for cols in self.cols]
+            self.ucol = [self.u[:, 0], self.u[:, 1]]
 
-    def command(self, z: np.ndarray, zd: np.ndarray, zm: np.ndarray) -> np.ndarray:
-        """``z``, ``zd``, ``zm`` (K, 2) in m, m/s, m; the commands (K, 2) in m."""
+    def bind(self, z: np.ndarray, zd: np.ndarray, zm: np.ndarray) -> None:
+        """The loop's (K, 2) input buffers, so that the per-actuator columns are views made
+        once (the per-step path allocates no arrays)."""
+        self.src = [(z[:, j], zd[:, j], zm[:, j]) for j in range(2)]
+        self.inputs = (z, zd, zm)
+
+    def command(self) -> np.ndarray:
+        """The commands (K, 2) in m from the bound inputs (m, m/s, m)."""
         if self.per_actuator:
             for j in range(2):
-                self.z[j][:, 0] = z[:, j]
-                self.zd[j][:, 0] = zd[:, j]
-                self.zm[j][:, 0] = zm[:, j]
-                self.u[:, j] = self.comps[j].command(self.z[j], self.zd[j], self.zm[j])[:, 0]
+                for dst, src in zip(self.flat[j], self.src[j], strict=True):
+                    np.copyto(dst, src)
+                out = self.comps[j].command(*self.cols[j])
+                np.copyto(self.ucol[j], out.reshape(-1))
             return self.u
-        return self.comps[0].command(z, zd, zm)
+        return self.comps[0].command(*self.inputs)
 
     def stopped(self) -> np.ndarray:
-        s = np.zeros_like(self.comps[0].stopped)
-        for c in self.comps:
-            s |= c.stopped
-        return s
+        if not self.per_actuator:
+            return self.comps[0].stopped
+        return np.logical_or(self.comps[0].stopped, self.comps[1].stopped, out=self._stopped)
 
     def stop(self, i: int) -> SafetyStop | None:
         for j, c in enumerate(self.comps):
@@ -298,6 +305,7 @@ def run_marths(cfg: MarthsConfig | None = None, compensator: Any = "rodeac",
     zt, zm = np.zeros((K, 2)), np.zeros((K, 2))
     zt_si, zm_si, zd_si, zprev = (np.zeros((K, 2)) for _ in range(4))
     u_mm = np.zeros((K, 2))
+    comps.bind(zt_si, zd_si, zm_si)
     work = np.zeros(ns)
     XAT, XAM, XH = np.zeros((N, K, 2)), np.zeros((N, K, 2)), np.zeros((N, K, 2))
     NUM, FF, UL = np.zeros((N, K, 6)), np.zeros((N, K, 3)), np.zeros((N, K, 2))
@@ -317,7 +325,7 @@ def run_marths(cfg: MarthsConfig | None = None, compensator: Any = "rodeac",
         np.subtract(zt_si, zprev, out=zd_si)
         zd_si *= inv_dt if k else 0.0
         zprev[:] = zt_si
-        u = comps.command(zt_si, zd_si, zm_si)
+        u = comps.command()
         st = comps.stopped()
         if st.any():
             new = st & alive
