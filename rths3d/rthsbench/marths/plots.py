@@ -13,9 +13,11 @@ from .engine import MarthsResult
 __all__ = ["plot_run"]
 
 
-def plot_run(res: MarthsResult, path: str | Path) -> Path:
+def plot_run(res: MarthsResult, path: str | Path, window: tuple[float, float] | None = None
+             ) -> Path:
     """Five panels over time: x (mm) and θ (mrad) — numerical target, measured x̂/θ̂ and
-    reference — then the drift of storeys 1, 2, 3 (mm), numerical against reference."""
+    reference — then the drift of storeys 1, 2, 3 (mm), numerical against reference;
+    ``window`` (s) zooms into a part of the record."""
     c = res.config
     fig = new_figure((10, 11))
     ax = fig.subplots(5, 1, sharex=True)
@@ -47,4 +49,6 @@ def plot_run(res: MarthsResult, path: str | Path) -> Path:
         title += (f": J1 = {j['J1'][0]:.1f}/{j['J1'][1]:.1f} ms, J2 = {j['J2'][0]:.1f}/"
                   f"{j['J2'][1]:.1f} %, J7 = {j['J7'][0]:.1f}/{j['J7'][1]:.1f} %")
     ax[0].set_title(title, fontsize=10)
+    if window is not None:
+        ax[0].set_xlim(*window)
     return save_figure(fig, path)
