@@ -12,6 +12,7 @@ Single-DOF substructures may give scalars ``m, c, k`` instead of matrices ``M, C
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import tomllib
@@ -192,7 +193,22 @@ def _numerical(raw: Mapping[str, Any], n_if: int, dofs: tuple[str, ...]) -> Nume
                            integrator=integ)
 
 
+_BUILT: dict[tuple, Any] = {}
+"""Sections already validated (a batch's scenes share most): key → the frozen section."""
+
+
 def _build(cls: type, name: str, sec: Mapping[str, Any], checks: Mapping[str, dict]) -> Any:
+    # the same raw section (each value's type and exact repr) validates to the same section
+    key = (cls, name, tuple((k, type(v), repr(v)) for k, v in sec.items()))
+    if key not in _BUILT:
+        if len(_BUILT) > 4096:
+            _BUILT.clear()
+        _BUILT[key] = _build_section(cls, name, sec, checks)
+    return _BUILT[key]
+
+
+def _build_section(cls: type, name: str, sec: Mapping[str, Any],
+                   checks: Mapping[str, dict]) -> Any:
     kwargs: dict[str, Any] = {}
     defaults = cls()
     for f in fields(cls):
@@ -562,6 +578,23 @@ def _relative_to(raw: dict[str, Any], folder: Path) -> dict[str, Any]:
     return raw
 
 
+def _section_items(section: Any) -> tuple[tuple[str, Any], ...]:
+    """The fields of a section (a frozen dataclass) as (name, value) pairs, NaN left out:
+    one :func:`dataclasses.asdict` per distinct section (a batch's tests share most)."""
+    try:
+        return _section_items_cached(section)
+    except TypeError:  # a section with an unhashable value
+        return _section_items_of(section)
+
+
+def _section_items_of(section: Any) -> tuple[tuple[str, Any], ...]:
+    return tuple((k, v) for k, v in asdict(section).items()
+                 if not (isinstance(v, float) and math.isnan(v)))
+
+
+_section_items_cached = functools.lru_cache(maxsize=256)(_section_items_of)
+
+
 def scene_to_dict(scene: Scene) -> dict[str, Any]:
     """The raw TOML-shaped mapping of a scene (inverse of :func:`scene_from_dict`)."""
     out: dict[str, Any] = {"name": scene.name, "dofs": list(scene.dofs), "dt": scene.dt,
@@ -576,10 +609,9 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
                             "K": [list(r) for r in nm.K], "gamma": [list(r) for r in nm.gamma],
                             "integrator": nm.integrator}
     for sec in ("experiment", "excitation", "transfer", "sensor", "safety"):
-        d = asdict(getattr(scene, sec))
-        out[sec] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in d.items()
-                    if not (isinstance(v, float) and math.isnan(v))
-                    and not (sec == "experiment" and k in EXPERIMENT_EXTRA and not v)}
+        out[sec] = {k: (list(v) if isinstance(v, tuple) else v)
+                    for k, v in _section_items(getattr(scene, sec))
+                    if not (sec == "experiment" and k in EXPERIMENT_EXTRA and not v)}
     if "inertia_tensor" in out["experiment"]:
         out["experiment"]["inertia"] = out["experiment"].pop("inertia_tensor")
     for sec, tab in (("platform", platform_dict(scene.platform)),

@@ -23,8 +23,8 @@ from rths3d.compensation import (
     design_inverse,
 )
 from rths3d.errors import ConfigError, SafetyStop
-from rths3d.transfer.actuators import Compensator as TransferCompensator
 from rths3d.transfer.actuators import DelayLine, LTIActuator, default_transfer_function
+from rths3d.transfer.compensator import Compensator as TransferCompensator
 
 NAMES = ["none", "velocity", "polynomial", "lead", "ats", "inverse", "rls", "rodeac",
          "model_based"]
