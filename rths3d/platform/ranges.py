@@ -146,6 +146,8 @@ def track_batch(sim: PlatformBatch, poses: np.ndarray, idx: np.ndarray, *,
     args = None
     if compiled and compiled_ok(sim):
         args = _range_args(sim, P, Pn, idx, rec, z, f, lazy)
+    if N > 1:
+        rec.stop[sim.stopped] = 1  # stopped before the first step (e.g. while settling)
     r = 1
     while r < N:
         if sim._any_stopped and sim.stopped.all():
