@@ -144,14 +144,13 @@ class BenchReplay:
             groups.setdefault((key,), []).append(i)
         out: list[dict[str, np.ndarray] | None] = [None] * len(benches)
         jobs = []
+        threaded = self.compiled and self.nthread > 1
+        if threaded and models is None:
+            models = [b.model() for b in benches]  # compiled here, not in the threads
         for idx in groups.values():
-            if self.compiled and self.nthread > 1 and len(idx) > 1:
+            if threaded and len(idx) > 1:
                 # threads over tests: the compiled ranges release the GIL, so each thread
                 # steps its own share of the tests (each test's arithmetic is its own)
-                if models is None:
-                    models = [None] * len(benches)
-                    for i in idx:
-                        models[i] = benches[i].model()
                 parts = np.array_split(np.asarray(idx), min(self.nthread, len(idx)))
                 jobs.extend(list(p) for p in parts)
             else:

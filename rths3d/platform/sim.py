@@ -5,8 +5,14 @@ commanded poses (K, 6) relative to home, computes the leg set-points (inverse ki
 gravity compensation, velocity feed-forward) and checks the command limits in one compiled
 kernel, advances MuJoCo by one interface step (``mujoco.batch.Batch`` for K > 1, one
 ``MjData`` for K = 1, where a thread pool's dispatch costs more than the step) and checks
-the measured limits. :class:`PlatformSim` is the same code for one platform with float
-poses and a :class:`~rths3d.errors.SafetyStop` raised at a limit.
+the measured limits. :class:`~rths3d.platform.single.PlatformSim` is the same code for one
+platform with float poses and a :class:`~rths3d.errors.SafetyStop` raised at a limit. This
+one-step-at-a-time driver is the readable reference; a known command series runs in
+compiled ranges (:func:`rths3d.platform.ranges.track_batch`,
+:mod:`rths3d.platform.compiled`), which hand stops back to it and give the same records.
+
+The controller's conventions are each test's ``ActuatorConfig`` data (``hold``, ``sample``,
+``feedforward``); the defaults are the convention below (ramp, end, backward difference).
 
 Timing and zeroing convention (one for the vRTHS loop, the diagnosis' replay and synthetic
 measurements; docs/architecture.md, "The bench"):
