@@ -77,14 +77,16 @@ def _mat(a: np.ndarray) -> str:
 
 
 def stewart_scene(data_path: str | None = None, record: str = "ElCentro",
-                  intensity: float = 0.02, duration: float = 10.0) -> str:
-    """The scene's TOML text: the record's first ``duration`` s (s, m/s²) written into it."""
+                  intensity: float = 0.02, duration: float = 6.0) -> str:
+    """The scene's TOML text: ``duration`` s of the record (s, m/s²) from the sample before
+    its first non-zero one (t = 0 there), written into it."""
     sp = stewart_partition(data_path)
     vec = ", ".join(f"{v:.17g}" for v in sp.l)
     rec = np.loadtxt(data_dir(data_path) / "data" / f"ground_motion_{record}.csv",
                      delimiter=",", skiprows=1)
-    rec = rec[rec[:, 0] <= duration + 1e-9]
-    times = ", ".join(f"{v:.6g}" for v in rec[:, 0])
+    t0 = rec[np.flatnonzero(rec[:, 1])[0], 0] - (rec[1, 0] - rec[0, 0])
+    rec = rec[(rec[:, 0] >= t0) & (rec[:, 0] <= t0 + duration + 1e-9)]
+    times = ", ".join(f"{v - t0:.6g}" for v in rec[:, 0])
     values = ", ".join(f"{v:.9g}" for v in rec[:, 1])
     return f"""\
 # maRTHS (Condori Uribe et al. 2023) through the MuJoCo Stewart platform: the benchmark's
@@ -96,7 +98,7 @@ def stewart_scene(data_path: str | None = None, record: str = "ElCentro",
 #   {sp.keep.tolist()}), the massless rotations condensed statically; {J_THETA:g} kg·m² added on θ21 (massless there).
 # - gamma: x = U27 -> platform x, θ = -U21 -> platform ry.
 # - [excitation]: the benchmark's {record} ground acceleration (m/s², data/ground_motion_{record}.csv,
-#   first {duration:g} s) × {intensity:g} on the floor sways
+#   {duration:g} s from its onset at {t0:g} s) × {intensity:g} on the floor sways
 #   (direction = the benchmark's influence vector l), loaded through M_N as the benchmark does.
 # - [experiment] marths_frame: the benchmark's 5-DOF specimen condensed to (x, θ), base fixed
 #   to the world (rths3d/experiment/marths_frame.py).
