@@ -35,6 +35,7 @@ __all__ = [
     "ContactPart",
     "ExperimentalPart",
     "LinearPart",
+    "MarthsFramePart",
     "MjcfPart",
     "MujocoSpecimen",
     "MultiDofPart",

@@ -95,10 +95,12 @@ def stewart_scene(data_path: str | None = None, record: str = "ElCentro",
 # - [numerical] M, C, K: the benchmark's numerical substructure (29-DOF SAP2000 reference
 #   minus the code's ideal physical model, Rayleigh 5 %; model.partition) reduced to the
 #   DOFs with mass plus the interface rotation (29-DOF indices
-#   {sp.keep.tolist()}), the massless rotations condensed statically; {J_THETA:g} kg·m² added on θ21 (massless there).
+#   {sp.keep.tolist()}), the massless rotations condensed
+#   statically; {J_THETA:g} kg·m² added on θ21 (massless there).
 # - gamma: x = U27 -> platform x, θ = -U21 -> platform ry.
-# - [excitation]: the benchmark's {record} ground acceleration (m/s², data/ground_motion_{record}.csv,
-#   {duration:g} s from its onset at {t0:g} s) × {intensity:g} on the floor sways
+# - [excitation]: the benchmark's {record} ground acceleration (m/s²,
+#   data/ground_motion_{record}.csv, {duration:g} s from its onset at {t0:g} s) × {intensity:g}
+#   on the floor sways
 #   (direction = the benchmark's influence vector l), loaded through M_N as the benchmark does.
 # - [experiment] marths_frame: the benchmark's 5-DOF specimen condensed to (x, θ), base fixed
 #   to the world (rths3d/experiment/marths_frame.py).
