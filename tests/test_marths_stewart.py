@@ -124,3 +124,20 @@ def test_stewart_run_and_its_reference(data, stewart_run):
         assert np.abs(h).max() > (5e-5 if dof == "x" else 1e-4)
         assert np.abs(zr - h).max() <= 5e-3 * np.abs(h).max(), dof
         assert np.abs(zr - ref).max() <= 0.10 * np.abs(ref).max(), dof
+
+
+def test_scene_is_the_marths_partition(data):
+    """scenes/marths_stewart.toml is what rths3d.rthsbench.marths.stewart writes from the
+    benchmark's data, and its reduced substructure reproduces the benchmark's numerical
+    static flexibility at the interface (x, θ) (static condensation is exact there)."""
+    from rths3d.rthsbench.marths.stewart import stewart_partition, stewart_scene
+
+    assert (REPO / "scenes" / "marths_stewart.toml").read_text() == stewart_scene(
+        str(data.parent))
+    sp = stewart_partition(str(data.parent))
+    KN = np.loadtxt(data / "numerical_K.csv", delimiter=",")
+    S = np.zeros((29, 2))
+    S[26, 0], S[20, 1] = 1.0, -1.0
+    flex = S.T @ np.linalg.solve(KN, S)
+    flex_r = sp.gamma.T @ np.linalg.solve(sp.K, sp.gamma)
+    assert np.allclose(flex_r, flex, rtol=1e-9, atol=0.0)
