@@ -47,6 +47,7 @@ def reference_structure(data, t: np.ndarray, intensity: float) -> np.ndarray:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from rths3d.errors import RthsError
     from rths3d.figures import new_figure, save_figure
     from rths3d.loop import run
     from rths3d.rthsbench.marths.data import data_dir
@@ -57,11 +58,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--set", action="append", default=[], help="scene override key=value")
     ap.add_argument("--plot", default=None, help="PNG to write")
     a = ap.parse_args(argv)
-    sc = load_scene("marths_stewart", [f"duration={a.duration}", *a.set])
-    res = run(sc, "stewart")
+    try:
+        sc = load_scene("marths_stewart", [f"duration={a.duration}", *a.set])
+        data = data_dir(None)
+        res = run(sc, "stewart")
+    except RthsError as exc:
+        ap.exit(2, f"error: {exc}\n")
     rec = res.record
     t = np.asarray(rec.t)
-    U = reference_structure(data_dir(None), t, sc.excitation.scale)
+    U = reference_structure(data, t, sc.excitation.scale)
     bench = {"x": U[:, 26], "ry": -U[:, 20]}
     out = {"status": res.status, "reason": res.reason, "duration_s": float(t[-1])}
     for d in ("x", "ry"):

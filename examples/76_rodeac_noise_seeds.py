@@ -22,13 +22,20 @@ import numpy as np
 
 
 def main(argv: list[str] | None = None) -> int:
+    from rths3d.errors import RthsError
     from rths3d.rthsbench.marths import offline_calibration
     from rths3d.rthsbench.marths.data import data_dir
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=20, help="noise seeds 0 … N−1")
     a = ap.parse_args(argv)
-    stored = json.loads((data_dir(None) / "data" / "controller_rodeac.json").read_text())
+    if a.seeds < 2:
+        ap.exit(2, f"error: --seeds: {a.seeds} (must be >= 2)\n")
+    try:
+        folder = data_dir(None)
+    except RthsError as exc:
+        ap.exit(2, f"error: {exc}\n")
+    stored = json.loads((folder / "data" / "controller_rodeac.json").read_text())
     th0 = np.array([stored["theta0_act1"], stored["theta0_act2"]])
     P0 = np.array([stored["P0_act1"], stored["P0_act2"]])
     rel = []
