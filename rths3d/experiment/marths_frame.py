@@ -16,16 +16,19 @@ tendons along x (length ``TENDON_LENGTH``): a tendon of stiffness k at height h 
 FTS origin gives k [1, h][1, h]ᵀ over (x, ry), so two of them at h = b/a ± √(det)/a with
 a/2 each realise any symmetric positive-definite [[a, b], [b, c]]; two more give C_if the
 same way. Small motions are linear (the tendons' transverse stretch is second order).
-MuJoCo only: the reference and the 1-D transfer systems run it behind a prescribed mount.
+The numpy twin (:class:`FrameTwin`) gives the same wrench from the mount's motion for the
+reference and the transfer systems without legs.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
+from ..config import ExperimentConfig
 from .base import ExperimentalPart, register_part
 
 TENDON_LENGTH = 0.5
@@ -48,6 +51,41 @@ def tendon_pair(A: np.ndarray) -> tuple[float, tuple[float, float]]:
     a, b, c = float(A[0, 0]), float(A[0, 1]), float(A[1, 1])
     d = math.sqrt(a * c - b * b) / a
     return 0.5 * a, (b / a + d, b / a - d)
+
+
+class FrameTwin:
+    """K frames driven by their mount: F = K_if z + C_if ż + M_if z̈ (N, N·m) at the end
+    of a step in which the mount moves linearly from ``z_from`` to ``z_to`` ((K, 2) m, rad),
+    ż = the step's velocity, z̈ = its change from the previous step's over ΔT (the tendons
+    are linear springs and dampers, the body rigid on the mount)."""
+
+    n_if = 2
+    tolerance = 1e-12
+
+    def __init__(self, K: int, dt: float):
+        self.K = K
+        self.dt = float(dt)
+        Kif, Cif, Mif = frame_matrices()
+        self._KT, self._CT, self._MT = Kif.T.copy(), Cif.T.copy(), Mif.T.copy()
+        self._v = np.zeros((K, 2))
+
+    def reset(self) -> None:
+        self._v[:] = 0.0
+
+    def advance(self, z_from: np.ndarray, z_to: np.ndarray) -> np.ndarray:
+        v = (np.asarray(z_to) - np.asarray(z_from)) / self.dt
+        a = (v - self._v) / self.dt
+        self._v = v
+        return np.asarray(z_to) @ self._KT + v @ self._CT + a @ self._MT
+
+    def get_state(self) -> np.ndarray:
+        return self._v.copy()
+
+    def set_state(self, state: np.ndarray) -> None:
+        self._v = np.array(state, dtype=float)
+
+    def compiled(self) -> None:
+        return None
 
 
 @register_part
@@ -96,6 +134,11 @@ class MarthsFramePart(ExperimentalPart):
 
     def damping_matrix(self) -> list[list[float]]:
         return frame_matrices()[1].tolist()
+
+    @classmethod
+    def numpy_model(cls, cfgs: Sequence[ExperimentConfig], dt: float, *, substeps: int,
+                    method: str) -> FrameTwin:
+        return FrameTwin(len(cfgs), dt)
 
     def meta(self) -> dict[str, Any]:
         return {**super().meta(), "source": "maRTHS 5-DOF specimen, condensed to (x, θ)"}
