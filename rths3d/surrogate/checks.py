@@ -1,0 +1,123 @@
+"""Checks of a coupled surrogate reference, its band and its reliability flag.
+
+An identified part model can explain the record well and still give a wrong ẑ^r: coupled to
+the numerical substructure it may run where the record never went, or grow through a regime
+that the record pinned down badly. These checks judge the *coupled prediction itself*, run
+by run, and turn the members' disagreement into a band and a flag:
+
+- **Coupled consistency** (:func:`consistent`). With the switch fixed at the start of each
+  step, each regime's exactly coupled one-step map is linear; a passive part on a damped
+  numerical substructure gives a reference that decays in every regime (only the exchange's
+  delay destabilises a test, and the reference has none). A model whose coupled run spends
+  more than :data:`OCCUPANCY` of its steps in a regime whose coupled spectral radius exceeds
+  :data:`~rths3d.surrogate.estimator.STABLE_RADIUS` grows where the real part decays: its
+  run is rejected. A regime the run barely visits may be unstable without harm (a contact
+  regime identified from a few short touches, in a reference that never touches).
+- **Extrapolation**: a run whose part force exceeds :data:`EXTRAPOLATION` times the
+  largest force in the record drives the model where it was never identified.
+- **The band** (:func:`band`): the smallest and the largest ê_rel,ref over the members (the
+  estimate, its refits on each half of the record, every consistent candidate that validates
+  within ``accept`` times the best), each widened by the relative floor
+  :data:`BAND_FLOOR` plus the chosen model's held-out output error.
+- **The flag** (:func:`flag_reasons`): the estimate is *unreliable* when no candidate
+  couples consistently, when the chosen model misses the measured force by more than
+  :data:`VALIDATION_LIMIT` on held-out blocks, when the members disagree by more than
+  :data:`SPREAD_LIMIT` (max/min of their ê_rel,ref) or when ẑ^r extrapolates the part.
+  Each reason is a sentence; a test whose every member diverges gets the status ``failed``
+  with its reason (its estimate NaN), never a silent NaN.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .base import LagModel
+
+OCCUPANCY = 0.01
+"""Largest share of a coupled run's steps allowed in a regime that grows when coupled."""
+EXTRAPOLATION = 3.0
+"""Largest part force of a coupled run, in multiples of the record's peak |F'_m|."""
+BAND_FLOOR = 0.05
+"""Relative widening of the members' range of ê_rel,ref that every band gets."""
+VALIDATION_LIMIT = 0.5
+"""Held-out output error of the chosen model above which the estimate is flagged."""
+SPREAD_LIMIT = 3.0
+"""Ratio of the largest to the smallest member's ê_rel,ref above which it is flagged."""
+
+
+@dataclass(frozen=True)
+class RunCheck:
+    """The check of one coupled run: ``ok`` (consistent), ``reason`` (why not, or ""),
+    ``radius`` (the largest coupled spectral radius over the regimes it occupies),
+    ``force_ratio`` (its peak part force over the record's peak |F'_m|)."""
+
+    ok: bool
+    reason: str
+    radius: float
+    force_ratio: float
+
+
+def regime_share(model: LagModel, z: np.ndarray, f: np.ndarray) -> float:
+    """Share of the steps of a run (ẑ^r, its part force (N, d)) spent in the high regime
+    (the switch read at the start of each step, as the coupling does)."""
+    sw = model.switch_
+    if not np.isfinite(sw.h) or len(z) < 2:
+        return 0.0
+    w = z[:-1] @ np.asarray(sw.a, float) - f[:-1] @ np.asarray(sw.c, float) - sw.h
+    return float(np.mean(w > 0))
+
+
+def check_run(model: LagModel, radii: tuple[float, float], z: np.ndarray, f: np.ndarray,
+              f_peak: float, stable_radius: float) -> RunCheck:
+    """:class:`RunCheck` of ``model`` coupled (``z`` ẑ^r, ``f`` its force, (N, d); NaN: the
+    run diverged); ``radii``: coupled spectral radii of its (low, high) regime."""
+    if not (np.isfinite(z).all() and np.isfinite(f).all()):
+        return RunCheck(False, "its coupled run diverged", np.inf, np.inf)
+    hi = regime_share(model, z, f)
+    shares = (1.0 - hi, hi)
+    used = [r for r, s in zip(radii, shares, strict=True) if s > OCCUPANCY]
+    radius = max(used) if used else max(radii)
+    ratio = float(np.max(np.abs(f))) / max(f_peak, 1e-300)
+    if radius > stable_radius:
+        which = "regime" if np.isfinite(model.switch_.h) else "model"
+        return RunCheck(False, f"it grows when coupled (spectral radius {radius:.5f} in a "
+                        f"{which} it occupies)", radius, ratio)
+    return RunCheck(True, "", radius, ratio)
+
+
+def band(values: np.ndarray, validation: float) -> tuple[float, float]:
+    """(lo, hi) of ê_rel,ref: the members' range widened by :data:`BAND_FLOOR` plus the
+    chosen model's held-out error ``validation`` (relative, both sides)."""
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    if not len(v):
+        return float("nan"), float("nan")
+    u = BAND_FLOOR + (validation if np.isfinite(validation) else 1.0)
+    return float(v.min() / (1.0 + u)), float(v.max() * (1.0 + u))
+
+
+def flag_reasons(any_consistent: bool, best_check: RunCheck, validation: float,
+                 values: np.ndarray) -> list[str]:
+    """Why the estimate should not be trusted (empty: reliable); see the module docstring."""
+    out = []
+    if not any_consistent:
+        out.append(f"no identified part model couples without growing ({best_check.reason})")
+    if not validation <= VALIDATION_LIMIT:
+        out.append(f"the part model misses F'_m by {validation:.3g} (relative RMS) on "
+                   f"held-out blocks (limit {VALIDATION_LIMIT:g}): the part lies outside "
+                   "the model classes")
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    if len(v) > 1 and v.max() > SPREAD_LIMIT * max(v.min(), 1e-300):
+        out.append(f"the members disagree: ê_rel,ref from {v.min():.3g} to {v.max():.3g} "
+                   f"(more than {SPREAD_LIMIT:g}×)")
+    if best_check.force_ratio > EXTRAPOLATION:
+        out.append(f"ẑ^r drives the part model to {best_check.force_ratio:.3g}× the largest "
+                   f"measured force (limit {EXTRAPOLATION:g}×): extrapolated")
+    return out
+
+
+__all__ = ["BAND_FLOOR", "EXTRAPOLATION", "OCCUPANCY", "RunCheck", "SPREAD_LIMIT",
+           "VALIDATION_LIMIT", "band", "check_run", "flag_reasons", "regime_share"]
