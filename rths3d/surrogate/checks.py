@@ -8,11 +8,12 @@ by run, and turn the members' disagreement into a band and a flag:
 - **Coupled consistency** (:func:`consistent`). With the switch fixed at the start of each
   step, each regime's exactly coupled one-step map is linear; a passive part on a damped
   numerical substructure gives a reference that decays in every regime (only the exchange's
-  delay destabilises a test, and the reference has none). A model whose coupled run spends
-  more than :data:`OCCUPANCY` of its steps in a regime whose coupled spectral radius exceeds
-  :data:`~rths3d.surrogate.estimator.STABLE_RADIUS` grows where the real part decays: its
-  run is rejected. A regime the run barely visits may be unstable without harm (a contact
-  regime identified from a few short touches, in a reference that never touches).
+  delay destabilises a test, and the reference has none). A regime of coupled spectral
+  radius ρ_r above :data:`~rths3d.surrogate.estimator.STABLE_RADIUS` occupied for n_r steps
+  of the coupled run can grow it by up to ρ_r^n_r; a run where this exceeds :data:`GROWTH`
+  in some regime grows where the real part decays, and is rejected. A regime the run
+  barely visits may be unstable without harm (a contact regime identified from a few short
+  touches, in a reference that never touches).
 - **Extrapolation**: a run whose part force exceeds :data:`EXTRAPOLATION` times the
   largest force in the record drives the model where it was never identified.
 - **The band** (:func:`band`): the smallest and the largest ê_rel,ref over the members (the
@@ -35,8 +36,8 @@ import numpy as np
 
 from .base import LagModel
 
-OCCUPANCY = 0.01
-"""Largest share of a coupled run's steps allowed in a regime that grows when coupled."""
+GROWTH = 2.0
+"""Largest growth ρ_r^n_r a regime may give the coupled run over the n_r steps it occupies."""
 EXTRAPOLATION = 3.0
 """Largest part force of a coupled run, in multiples of the record's peak |F'_m|."""
 BAND_FLOOR = 0.05
@@ -76,14 +77,19 @@ def check_run(model: LagModel, radii: tuple[float, float], z: np.ndarray, f: np.
     if not (np.isfinite(z).all() and np.isfinite(f).all()):
         return RunCheck(False, "its coupled run diverged", np.inf, np.inf)
     hi = regime_share(model, z, f)
-    shares = (1.0 - hi, hi)
-    used = [r for r, s in zip(radii, shares, strict=True) if s > OCCUPANCY]
-    radius = max(used) if used else max(radii)
+    steps = (len(z) - 1) * np.array([1.0 - hi, hi])
+    r = np.asarray(radii, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        growth = np.where(r > stable_radius, steps * np.log(np.maximum(r, 1e-300)), 0.0)
+    used = r[steps > 0]
+    radius = float(used.max()) if len(used) else float(r.max())
     ratio = float(np.max(np.abs(f))) / max(f_peak, 1e-300)
-    if radius > stable_radius:
-        which = "regime" if np.isfinite(model.switch_.h) else "model"
-        return RunCheck(False, f"it grows when coupled (spectral radius {radius:.5f} in a "
-                        f"{which} it occupies)", radius, ratio)
+    if not np.all(growth <= np.log(GROWTH)):
+        q = int(np.argmax(np.nan_to_num(growth, nan=np.inf)))
+        which = ("model" if not np.isfinite(model.switch_.h) else
+                 ("low" if q == 0 else "high") + " regime")
+        return RunCheck(False, f"it grows when coupled (spectral radius {r[q]:.5f} of its "
+                        f"{which}, occupied {int(steps[q])} steps)", float(r[q]), ratio)
     return RunCheck(True, "", radius, ratio)
 
 
@@ -119,5 +125,5 @@ def flag_reasons(any_consistent: bool, best_check: RunCheck, validation: float,
     return out
 
 
-__all__ = ["BAND_FLOOR", "EXTRAPOLATION", "OCCUPANCY", "RunCheck", "SPREAD_LIMIT",
+__all__ = ["BAND_FLOOR", "EXTRAPOLATION", "GROWTH", "RunCheck", "SPREAD_LIMIT",
            "VALIDATION_LIMIT", "band", "check_run", "flag_reasons", "regime_share"]
