@@ -21,9 +21,10 @@ by run, and turn the members' disagreement into a band and a flag:
   within ``accept`` times the best), each widened by the relative floor
   :data:`BAND_FLOOR` plus the chosen model's held-out output error.
 - **The flag** (:func:`flag_reasons`): the estimate is *unreliable* when no candidate
-  couples consistently, when the chosen model misses the measured force by more than
-  :data:`VALIDATION_LIMIT` on held-out blocks, when the members disagree by more than
-  :data:`SPREAD_LIMIT` (max/min of their ê_rel,ref) or when ẑ^r extrapolates the part.
+  couples consistently, when the chosen model, replaying the record (driven by the
+  measured z'), misses the measured force by more than :data:`VALIDATION_LIMIT`, when
+  the members disagree by more than :data:`SPREAD_LIMIT` (max/min of their ê_rel,ref) or
+  when ẑ^r extrapolates the part.
   Each reason is a sentence; a test whose every member diverges gets the status ``failed``
   with its reason (its estimate NaN), never a silent NaN.
 """
@@ -43,7 +44,8 @@ EXTRAPOLATION = 3.0
 BAND_FLOOR = 0.05
 """Relative widening of the members' range of ê_rel,ref that every band gets."""
 VALIDATION_LIMIT = 0.5
-"""Held-out output error of the chosen model above which the estimate is flagged."""
+"""Replay error of the chosen model (driven by the measured z' over the whole record,
+relative RMS force error) above which the estimate is flagged."""
 SPREAD_LIMIT = 3.0
 """Ratio of the largest to the smallest member's ê_rel,ref above which it is flagged."""
 
@@ -104,16 +106,18 @@ def band(values: np.ndarray, validation: float) -> tuple[float, float]:
     return float(v.min() / (1.0 + u)), float(v.max() * (1.0 + u))
 
 
-def flag_reasons(any_consistent: bool, best_check: RunCheck, validation: float,
+def flag_reasons(any_consistent: bool, best_check: RunCheck, replay: float,
                  values: np.ndarray) -> list[str]:
-    """Why the estimate should not be trusted (empty: reliable); see the module docstring."""
+    """Why the estimate should not be trusted (empty: reliable); see the module docstring.
+    ``replay``: the chosen model's replay error, run freely over the whole record driven by
+    the measured z', RMS(F_sim − F'_m)/RMS(F'_m)."""
     out = []
     if not any_consistent:
         out.append(f"no identified part model couples without growing ({best_check.reason})")
-    if not validation <= VALIDATION_LIMIT:
-        out.append(f"the part model misses F'_m by {validation:.3g} (relative RMS) on "
-                   f"held-out blocks (limit {VALIDATION_LIMIT:g}): the part lies outside "
-                   "the model classes")
+    if not replay <= VALIDATION_LIMIT:
+        out.append(f"the part model, driven by the measured z', misses F'_m by {replay:.3g} "
+                   f"(relative RMS; limit {VALIDATION_LIMIT:g}): the part lies outside the "
+                   "model classes")
     v = np.asarray(values, float)
     v = v[np.isfinite(v)]
     if len(v) > 1 and v.max() > SPREAD_LIMIT * max(v.min(), 1e-300):

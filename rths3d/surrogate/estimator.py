@@ -457,18 +457,21 @@ class SurrogateReference:
             e = dict.fromkeys(keys, math.nan)
             e.update({"e_rel_ref_std": math.nan, "e_rel_ref_members": [],
                       "e_rel_ref_lo": math.nan, "e_rel_ref_hi": math.nan,
-                      "model": best.label, "validation": s0, "n_members": 0,
+                      "model": best.label, "validation": s0,
+                      "replay": ident.insample[j], "n_members": 0,
                       "status": "failed", "reliable": False, "reason": reason})
             return e, np.full_like(zp, np.nan), np.zeros((0,) + zp.shape)
         vals = [_errors(z, zp, dom) for z in runs]
         rel = np.array([v["e_rel_ref"] for v in vals])
         lo, hi = band(rel, s0)
-        reasons = flag_reasons(checks[j].ok, checks[j], s0, rel)
+        replay = ident.insample[j]
+        reasons = flag_reasons(checks[j].ok, checks[j], replay, rel)
         e = dict(vals[0])
         e.update({"e_rel_ref_std": float(np.std(rel)) if len(rel) > 1 else math.nan,
                   "e_rel_ref_members": rel.tolist(), "e_rel_ref_lo": lo, "e_rel_ref_hi": hi,
-                  "model": best.label, "validation": s0, "n_members": len(members),
-                  "status": "unreliable" if reasons else "ok", "reliable": not reasons,
+                  "model": best.label, "validation": s0, "replay": replay,
+                  "n_members": len(members), "status": "unreliable" if reasons else "ok",
+                  "reliable": not reasons,
                   "reason": "; ".join(reasons)})
         return e, runs[0], np.stack(runs)
 
