@@ -73,6 +73,8 @@ class FidelityMonitor:
         self.identify_cpu_s = 0.0
         """Its processor time (s): what it costs whatever else the machine runs."""
         self._rms = np.empty((0, 0, 0))
+        self.cpu_s = 0.0
+        """Processor time (s) spent in :meth:`update`, the identification included."""
         from ..numerical import LinearSubstructure
 
         if self.enabled and type(num) is not LinearSubstructure:
@@ -100,6 +102,13 @@ class FidelityMonitor:
         row n and act on any crossing."""
         if not self.enabled or n < self.warmup_rows:
             return
+        c0 = time.process_time()
+        try:
+            self._update(data, ci, n, stop)
+        finally:
+            self.cpu_s += time.process_time() - c0
+
+    def _update(self, data: np.ndarray, ci: dict[str, int], n: int, stop) -> None:
         c_z, c_f = ci[f"z_meas.{self.dofs[0]}"], ci[f"f_meas.{self.dofs[0]}"]
         d = len(self.dofs)
         if self.online is None:
@@ -218,6 +227,7 @@ class FidelityMonitor:
                                "validation": float(self.validation[k]),
                                "identify_s": float(self.identify_s),
                                "identify_cpu_s": float(self.identify_cpu_s),
+                               "cpu_s": float(self.cpu_s),
                                "peak": [float(v) for v in self.peak[k]],
                                "peak_after": float(s.fidelity_warmup),
                                "crossed": self.first[k]}
