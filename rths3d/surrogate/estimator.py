@@ -4,23 +4,23 @@ Procedure (one record, or many stepped together):
 
 1. **Identify the part.** From the measured interface displacement z' and force F'_m, fit
    every candidate model class (:data:`CANDIDATES`: linear ARX and switched ARX of two
-   orders each, no prior knowledge of the part) and score each by its output error on
-   held-out blocks of the record (:meth:`~rths3d.surrogate.base.LagModel.validate`). The
-   best-scoring candidate is the surrogate part.
-2. **Couple it.** The identified part is coupled to the numerical substructure of the record
-   (M, C, K, Γ from ``meta["numerical"]``, its load p from the ``p_num.<i>`` columns) with
-   compatibility and equilibrium exact at every sample
-   (:func:`rths3d.reference.couple_exact`, the machinery of the reference solution): this is
-   ẑ^r(t).
-3. **Errors and uncertainty.** ê(t) = z'(t) − ẑ^r(t) gives every reference error measure
-   (ê_rel,ref = RMS(ê)/RMS(ẑ^r), …) and the running RMS at every step. The uncertainty is the
-   spread of ê_rel,ref over *members*: the best candidate refitted on the first and on the
-   second half of the record (bootstrap blocks) and the best candidate of the other model
-   class when it validates within ``accept`` times the best score (spread over classes). All
-   members are coupled in one batch.
-
-A member whose coupled run diverges (its part model's force exceeds 10³ times the measured
-peak) is dropped; if the best one diverges, the next valid member gives the estimate.
+   orders each, the switched class with and without the guard around its switch; no prior
+   knowledge of the part) and score each by its output error on held-out blocks of the
+   record (:meth:`~rths3d.surrogate.base.LagModel.validate`).
+2. **Couple every candidate and check its run.** Each candidate is coupled to the numerical
+   substructure of the record (M, C, K, Γ from ``meta["numerical"]``, its load p from the
+   ``p_num.<i>`` columns) with compatibility and equilibrium exact at every sample (the
+   machinery of the reference solution), and its run is checked (:mod:`.checks`: it must
+   not grow through a regime it occupies, nor diverge). The consistent candidate of best
+   held-out score gives ẑ^r(t).
+3. **Errors, band and flag.** ê(t) = z'(t) − ẑ^r(t) gives every reference error measure
+   (ê_rel,ref = RMS(ê)/RMS(ẑ^r), …) and the running RMS at every step. *Members*: the
+   chosen model, its refits on each half of the record (bootstrap blocks) and every
+   consistent candidate that validates within ``accept`` times its score; their range of
+   ê_rel,ref, widened, is the band. The estimate is flagged unreliable, with its reasons,
+   when no candidate is consistent, when the model's replay of the record misses F'_m, when
+   the members disagree or when ẑ^r extrapolates the part; when every candidate diverges
+   its status is ``failed`` (:func:`.checks.flag_reasons`).
 """
 
 from __future__ import annotations
@@ -369,7 +369,10 @@ class SurrogateReference:
     ``estimates_``
         dict of ê_rel,ref, ê_MRE,ref, ê_peak,ref, ê_rel,ref,f (dominant DOF, dimensionless)
         and ``e_rel_ref_std`` (spread of ê_rel,ref over the members), ``e_rel_ref_members``,
-        ``model`` (chosen candidate), ``validation`` (its output error), ``n_members``.
+        ``e_rel_ref_lo``, ``e_rel_ref_hi`` (the band, :func:`.checks.band`), ``model``
+        (chosen candidate), ``validation`` (its held-out output error), ``replay`` (its
+        free run over the whole record), ``n_members``, ``status`` (``ok``, ``unreliable``
+        or ``failed``), ``reliable`` and ``reason`` (:func:`.checks.flag_reasons`).
 
     ``columns(record)`` gives the per-step columns of a fitted record (see
     :func:`rths3d.surrogate.fidelity_columns`).
