@@ -86,8 +86,9 @@ def record_metas(scenes: Sequence[Scene], num: NumericalSubstructure,
             parts[key] = make_part(s.experiment)
     margins: list[tuple[float, float, float] | None] = [None] * len(scenes)
     if num.n == 1 and np.shape(num.gamma) == (1, 1) and len(scenes) > 1:
-        mats = [(p.interface_matrices(), p.damping_matrix()) for p in
-                (parts[key] for key in keys)]
+        of_part = {key: (part.interface_matrices(), part.damping_matrix())
+                   for key, part in parts.items()}
+        mats = [of_part[key] for key in keys]
         if all(np.size(me) == 1 for (_, me), _ in mats):
             ke = [float(np.ravel(kx)[0]) for (kx, _), _ in mats]
             me = [float(np.ravel(mx)[0]) for (_, mx), _ in mats]

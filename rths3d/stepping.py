@@ -128,19 +128,24 @@ def run_steps(n0, n1, num, tr, io, mon, rec, noise_act, noise_sens):
 @njit
 def fill_known(data, dt, p, gamma, c_t, c_fe, c_pn):
     """The record columns known before the run, in one pass over the record array (N+1, K,
-    C): the time t (s), f_ext = Γᵀ p and p_num = p for the loads p (K, N+1, n)."""
+    C): the time t (s), f_ext = Γᵀ p and p_num = p for the loads p (K, N+1, n). Blocks of
+    rows, so that both the loads (read along time) and the record (written across tests)
+    stay in cache."""
     K, N1, n = p.shape
     nd = gamma.shape[1]
-    for r in range(N1):
+    B = 64
+    for r0 in range(0, N1, B):
+        r1 = min(N1, r0 + B)
         for k in range(K):
-            data[r, k, c_t] = r * dt
-            for j in range(nd):
-                acc = 0.0
+            for r in range(r0, r1):
+                data[r, k, c_t] = r * dt
+                for j in range(nd):
+                    acc = 0.0
+                    for i in range(n):
+                        acc += p[k, r, i] * gamma[i, j]
+                    data[r, k, c_fe + j] = acc
                 for i in range(n):
-                    acc += p[k, r, i] * gamma[i, j]
-                data[r, k, c_fe + j] = acc
-            for i in range(n):
-                data[r, k, c_pn + i] = p[k, r, i]
+                    data[r, k, c_pn + i] = p[k, r, i]
 
 
 def noise_buffer(chain, steps: int, rows: int) -> np.ndarray:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ..effects.blocks import njit
 
-__all__ = ["linear_step"]
+__all__ = ["linear_step", "load_terms_1dof"]
 
 
 @njit
@@ -41,3 +41,21 @@ def linear_step(Ad, Bf, P, n, f, s, s_next, Czx, Czv, Cx, z, zd, x):
             for i in range(S):
                 a += s[k, i] * Cx[j, i]
             x[k, j] = a
+
+
+@njit
+def load_terms_1dof(p, A, B, P):
+    """The load terms P (N, K, 2) of one-DOF substructures: P[n, k] = A p_n + B p_{n+1} for
+    the loads p (K, N+1) and the per-test (or shared, first axis 1) columns A, B (·, 2) (B
+    all zero: the held-load integrator). Blocks of steps, so that the loads (read along
+    time) and P (written across tests) stay in cache."""
+    K, N1 = p.shape
+    shared = A.shape[0] == 1
+    blk = 64
+    for n0 in range(0, N1 - 1, blk):
+        n1 = min(N1 - 1, n0 + blk)
+        for k in range(K):
+            kk = 0 if shared else k
+            for n in range(n0, n1):
+                for s in range(2):
+                    P[n, k, s] = p[k, n] * A[kk, s] + p[k, n + 1] * B[kk, s]

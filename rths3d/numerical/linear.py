@@ -24,6 +24,7 @@ import scipy.linalg
 
 from ..errors import ConfigError
 from ._kernels import linear_step as _linear_step
+from ._kernels import load_terms_1dof
 from .excitation import excitation_signal, load_history
 from .modal import fastest_eigenfrequency
 
@@ -203,18 +204,17 @@ class LinearSubstructure:
         self.Bf0 = (self.G1 - self.G2) @ G
         self.Bf1 = self.G2 @ G
         # Known load with first-order hold, precomputed for the whole run: (N, K, S), step
-        # by step (the compiled loop reads the K tests' terms of one step together). One
-        # product per load component, on whole arrays: tiny batched matmuls cost far more.
-        # (Several load components: the batched matmuls of before, whose rounding the
-        # multi-DOF records keep.)
+        # by step (the compiled loop reads the K tests' terms of one step together): for one
+        # DOF in one compiled pass (tiny batched matmuls cost far more); for several, the
+        # batched matmuls of before, whose rounding the multi-DOF records keep.
         A = self.G1 if method == "central_difference" else self.G1 - self.G2
         if self.n == 1:
-            pT = p[:, :, 0].T  # (N+1, K)
-            P = pT[:-1, :, None] * A[None, :, :, 0]
-            if method != "central_difference":
-                P += pT[1:, :, None] * self.G2[None, :, :, 0]
-            shape = (p.shape[1] - 1, self.K_tests, 2 * self.n)
-            self.P = P if P.shape == shape else np.array(np.broadcast_to(P, shape))
+            B = np.zeros_like(A[:, :, 0]) if method == "central_difference" else \
+                self.G2[:, :, 0]
+            self.P = np.empty((p.shape[1] - 1, self.K_tests, 2))
+            load_terms_1dof(np.ascontiguousarray(np.broadcast_to(p[:, :, 0], (
+                self.K_tests, p.shape[1]))), np.ascontiguousarray(A[:, :, 0]),
+                np.ascontiguousarray(B), self.P)
         else:
             P = np.matmul(p[:, :-1], np.swapaxes(A, 1, 2))
             if method != "central_difference":
