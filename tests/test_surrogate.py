@@ -291,8 +291,16 @@ def test_every_sweep_row_carries_the_estimate(tmp_path) -> None:
     assert len(ok) == 4
     np.testing.assert_allclose(ok["feature.e_rel_ref_hat"], ok["target.e_rel_ref"], rtol=0.02)
     for col in ("feature.e_rel_ref_hat_std", "feature.surrogate_validation",
-                "measure.e_mre_ref_hat", "measure.surrogate_members"):
+                "measure.e_mre_ref_hat", "measure.surrogate_members",
+                "measure.e_rel_ref_hat_lo", "measure.e_rel_ref_hat_hi"):
         assert np.isfinite(ok[col]).all(), col
+    # the band holds the estimate and, for a part in the class, the truth; none is flagged
+    assert (ok["measure.e_rel_ref_hat_lo"] <= ok["feature.e_rel_ref_hat"]).all()
+    assert (ok["measure.e_rel_ref_hat_hi"] >= ok["feature.e_rel_ref_hat"]).all()
+    assert ((ok["measure.e_rel_ref_hat_lo"] <= ok["target.e_rel_ref"])
+            & (ok["target.e_rel_ref"] <= ok["measure.e_rel_ref_hat_hi"])).all()
+    assert (ok["measure.surrogate_flag"] == 0).all()
+    assert (ok["measure.surrogate_reason"] == "ok").all()
     names = parse_features("1,surrogate")
     assert names == tuple(SET_1) + tuple(SURROGATE)
     X, y, _ = training_data(table, names)

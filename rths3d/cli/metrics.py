@@ -41,6 +41,10 @@ _LABELS.update({
     "e_rel_ref_hat_std": ("spread of ê_rel,ref over members", ""),
     "surrogate_validation": ("part model output error, held out", ""),
     "surrogate_members": ("surrogate members coupled", ""),
+    "e_rel_ref_hat_lo": ("band of ê_rel,ref: low", ""),
+    "e_rel_ref_hat_hi": ("band of ê_rel,ref: high", ""),
+    "surrogate_flag": ("estimate unreliable (1) or reliable (0)", ""),
+    "surrogate_reason": ("surrogate status and why", ""),
 })
 for _i in range(2, 10):
     _LABELS[f"j{_i}"] = (f"J{_i}", "%")
@@ -101,6 +105,11 @@ def metrics(
         keeper.finish()
         return
     _table(rec, result, record)
+    agg = result.get("aggregate", result)
+    if agg.get("surrogate_flag") == 1.0:
+        typer.echo(f"warning: the surrogate estimate is not to be trusted — "
+                   f"{agg.get('surrogate_reason')} (docs/surrogate.md: what to do with a "
+                   "flagged test)", err=True)
     if save_estimate is not None:
         typer.echo(f"wrote {save_estimate}")
     for p in paths:

@@ -135,7 +135,8 @@ def predict(
     """Predict the fidelity (e.g. e_rel,ref) with the ensemble (median of its members) and
     its spread; on a table with targets, ρ overall and per family (or --by column), per
     member (median / worst), the share of tests outside the training ranges and ρ on the
-    tests inside them."""
+    tests inside them; on a table with the surrogate estimate, its own ρ, the coverage of
+    its band and the share flagged unreliable (``surrogate``)."""
     import warnings
 
     import numpy as np
@@ -235,6 +236,9 @@ def predict(
             if group_col is not None:
                 res["by"] = group_col
                 res["groups"] = rep["groups"]
+    sur = surrogate_scores(frame, net.target_name)
+    if sur is not None:
+        res["surrogate"] = sur
     if as_json:
         typer.echo(json_line(res))
         return
@@ -251,7 +255,48 @@ def predict(
                    f"{res['members']['worst']:.4f}; {100 * res['share_outside']:.1f} % of the "
                    f"tests outside the training ranges, ρ in range {res['r_in_range']:.4f} "
                    f"({res['n_in_range']} tests)")
+        if sur is not None:
+            typer.echo(f"surrogate ê_rel,ref: ρ {sur['r']:.4f} (log10 {sur['r_log10']:.4f}), "
+                       f"true value inside its band {100 * sur['coverage']:.1f} %, flagged "
+                       f"{100 * sur['flagged']:.1f} %, inside or flagged "
+                       f"{100 * sur['coverage_or_flagged']:.1f} % ({sur['n']} tests)")
         for g, r in res.get("groups", {}).items():
             typer.echo(f"  {res['by']} {g}: ρ {r['r']:.4f} (log10 {r['r_log10']:.4f}), "
                        f"members {r['members']['median']:.4f} / {r['members']['worst']:.4f}, "
                        f"{r['n']} tests, {100 * r['share_outside']:.1f} % outside")
+
+
+def surrogate_scores(frame, target: str = "e_rel_ref") -> dict | None:
+    """How the surrogate estimate of a sweep table (``feature.e_rel_ref_hat``, its band
+    ``measure.e_rel_ref_hat_lo``/``_hi`` and ``measure.surrogate_flag``) scores against the
+    true ``target.e_rel_ref``: ρ (eq. 15, linear and log10) over the tests with both finite,
+    ``coverage`` (share whose true value lies in the band), ``flagged`` (share flagged
+    unreliable or failed), ``coverage_or_flagged``, ``underestimated_3x_unflagged`` (tests
+    whose truth exceeds three times the estimate without a flag), ``nan`` (estimates
+    missing among the tests scored), ``n``. None when the table lacks them or the target is
+    another one."""
+    import numpy as np
+
+    from ..ann import pearson_rho
+    from ..dataset.table import FEATURE, MEASURE, TARGET
+
+    cols = (FEATURE + "e_rel_ref_hat", MEASURE + "e_rel_ref_hat_lo",
+            MEASURE + "e_rel_ref_hat_hi", MEASURE + "surrogate_flag", TARGET + "e_rel_ref")
+    if target != "e_rel_ref" or any(c not in frame.columns for c in cols):
+        return None
+    est, lo, hi, flag, t = (frame[c].to_numpy(dtype=float) for c in cols)
+    have = np.isfinite(t)
+    flagged = (flag > 0) | ~np.isfinite(est)
+    ok = have & np.isfinite(est)
+    if ok.sum() < 2:
+        return None
+    inside = (t >= lo) & (t <= hi)
+    pos = ok & (est > 0) & (t > 0)
+    return {"r": pearson_rho(est[ok], t[ok]),
+            "r_log10": pearson_rho(np.log10(est[pos]), np.log10(t[pos])) if pos.sum() > 1
+            else float("nan"),
+            "coverage": float(np.mean(inside[have])),
+            "flagged": float(np.mean(flagged[have])),
+            "coverage_or_flagged": float(np.mean((inside | flagged)[have])),
+            "underestimated_3x_unflagged": int(np.sum(ok & ~flagged & (t > 3 * est))),
+            "nan": int(np.sum(have & ~np.isfinite(est))), "n": int(have.sum())}

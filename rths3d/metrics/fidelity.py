@@ -13,6 +13,11 @@ z^r in the reference errors. Keys (dimensionless; the dominant DOF for several D
                             the record, RMS(F_sim − F'_m)/RMS(F'_m): how well the model
                             class describes this part (large: outside the classes)
 ``surrogate_members``       members that coupled without diverging
+``e_rel_ref_hat_lo``,       the band of ê_rel,ref: the members' range, widened by 5 % plus
+``e_rel_ref_hat_hi``        the held-out error (:mod:`rths3d.surrogate.checks`)
+``surrogate_flag``          1 when the estimate is unreliable or failed (the reason says
+                            why), else 0
+``surrogate_reason``        ``ok``, or ``unreliable: …`` / ``failed: …`` with the reasons
 ==========================  ==============================================================
 
 ``e_rel_ref_hat``, ``e_rel_ref_hat_std`` and ``surrogate_validation`` are the ANN inputs
@@ -30,18 +35,23 @@ from ..errors import RecordError
 from ..record import Record
 
 KEYS: tuple[str, ...] = ("e_rel_ref_hat", "e_mre_ref_hat", "e_peak_ref_hat", "e_rel_ref_f_hat",
-                         "e_rel_ref_hat_std", "surrogate_validation", "surrogate_members")
+                         "e_rel_ref_hat_std", "surrogate_validation", "surrogate_members",
+                         "e_rel_ref_hat_lo", "e_rel_ref_hat_hi", "surrogate_flag",
+                         "surrogate_reason")
 """Keys of :func:`surrogate_measures`."""
 
 
-def _flat(e: dict) -> dict[str, float]:
+def _flat(e: dict) -> dict[str, float | str]:
     """The keys of this module from :attr:`SurrogateReference.estimates_` of a record."""
     std = e["e_rel_ref_std"]
     return {"e_rel_ref_hat": e["e_rel_ref"], "e_mre_ref_hat": e["e_mre_ref"],
             "e_peak_ref_hat": e["e_peak_ref"], "e_rel_ref_f_hat": e["e_rel_ref_f"],
             "e_rel_ref_hat_std": 0.0 if (math.isnan(std) and e["n_members"] == 1) else std,
             "surrogate_validation": float(e["validation"]),
-            "surrogate_members": float(e["n_members"])}
+            "surrogate_members": float(e["n_members"]),
+            "e_rel_ref_hat_lo": e["e_rel_ref_lo"], "e_rel_ref_hat_hi": e["e_rel_ref_hi"],
+            "surrogate_flag": 0.0 if e["reliable"] else 1.0,
+            "surrogate_reason": f"{e['status']}: {e['reason']}" if e["reason"] else "ok"}
 
 
 def can_estimate(record: Record) -> bool:

@@ -121,8 +121,11 @@ def lstsq_fit(R: np.ndarray, Y: np.ndarray, T: np.ndarray, ridge: float = 1e-12)
         Y = np.vstack([Y, np.zeros((p, Y.shape[1]))])
     # QR (Householder) rather than an SVD: ~10× faster on these tall, thin problems, and
     # the differences and the ridge keep R well conditioned
-    q, r = np.linalg.qr(Ds)
-    th = solve_triangular(r, q.T @ Y)
+    # of the augmented [Ds Y] only R is formed: its top right block is Qᵀ Y (no Q built,
+    # half the work)
+    k = Y.shape[1]
+    r = np.linalg.qr(np.hstack([Ds, Y]), mode="r")
+    th = solve_triangular(r[:p, :p], r[:p, p:p + k])
     return ((th / scale[:, None]).T @ T)  # Θ_raw = Θ_δ T
 
 

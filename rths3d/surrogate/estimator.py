@@ -4,23 +4,23 @@ Procedure (one record, or many stepped together):
 
 1. **Identify the part.** From the measured interface displacement z' and force F'_m, fit
    every candidate model class (:data:`CANDIDATES`: linear ARX and switched ARX of two
-   orders each, no prior knowledge of the part) and score each by its output error on
-   held-out blocks of the record (:meth:`~rths3d.surrogate.base.LagModel.validate`). The
-   best-scoring candidate is the surrogate part.
-2. **Couple it.** The identified part is coupled to the numerical substructure of the record
-   (M, C, K, Γ from ``meta["numerical"]``, its load p from the ``p_num.<i>`` columns) with
-   compatibility and equilibrium exact at every sample
-   (:func:`rths3d.reference.couple_exact`, the machinery of the reference solution): this is
-   ẑ^r(t).
-3. **Errors and uncertainty.** ê(t) = z'(t) − ẑ^r(t) gives every reference error measure
-   (ê_rel,ref = RMS(ê)/RMS(ẑ^r), …) and the running RMS at every step. The uncertainty is the
-   spread of ê_rel,ref over *members*: the best candidate refitted on the first and on the
-   second half of the record (bootstrap blocks) and the best candidate of the other model
-   class when it validates within ``accept`` times the best score (spread over classes). All
-   members are coupled in one batch.
-
-A member whose coupled run diverges (its part model's force exceeds 10³ times the measured
-peak) is dropped; if the best one diverges, the next valid member gives the estimate.
+   orders each, the switched class with and without the guard around its switch; no prior
+   knowledge of the part) and score each by its output error on held-out blocks of the
+   record (:meth:`~rths3d.surrogate.base.LagModel.validate`).
+2. **Couple every candidate and check its run.** Each candidate is coupled to the numerical
+   substructure of the record (M, C, K, Γ from ``meta["numerical"]``, its load p from the
+   ``p_num.<i>`` columns) with compatibility and equilibrium exact at every sample (the
+   machinery of the reference solution), and its run is checked (:mod:`.checks`: it must
+   not grow through a regime it occupies, nor diverge). The consistent candidate of best
+   held-out score gives ẑ^r(t).
+3. **Errors, band and flag.** ê(t) = z'(t) − ẑ^r(t) gives every reference error measure
+   (ê_rel,ref = RMS(ê)/RMS(ẑ^r), …) and the running RMS at every step. *Members*: the
+   chosen model, its refits on each half of the record (bootstrap blocks) and every
+   consistent candidate that validates within ``accept`` times its score; their range of
+   ê_rel,ref, widened, is the band. The estimate is flagged unreliable, with its reasons,
+   when no candidate is consistent, when the model's replay of the record misses F'_m, when
+   the members disagree or when ẑ^r extrapolates the part; when every candidate diverges
+   its status is ``failed`` (:func:`.checks.flag_reasons`).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -37,8 +37,9 @@ from ..metrics._signals import dominant_dof
 from ..record import Record
 from .arx import ARX
 from .base import LagModel, LagPart, Switch, check_signals, first_sample
+from .checks import band, check_run, flag_reasons
 from .running import WINDOW, running_rms
-from .switched import SwitchedARX
+from .switched import GUARD, SwitchedARX
 
 CANDIDATES: tuple[tuple[str, int, int], ...] = (
     ("arx", 4, 2), ("arx", 6, 4), ("switched", 4, 2), ("switched", 6, 4))
@@ -67,7 +68,9 @@ class SurrogateConfig:
     class whose validation error is within this factor of the best joins the members;
     ``halves``: refit the best on each half of the record as two more members; ``tol``
     (m, rad) and ``max_iter``: the interface iteration of the coupling; ``window``:
-    running-RMS window (s).
+    running-RMS window (s); ``guards``: the switched class is fitted once per entry, with
+    that many rows on either side of a change of regime left out of the regimes' fits
+    (:data:`~rths3d.surrogate.switched.GUARD`).
     """
 
     candidates: tuple[tuple[str, int, int], ...] = CANDIDATES
@@ -79,6 +82,7 @@ class SurrogateConfig:
     max_iter: int = 30
     window: float = WINDOW
     couplings: tuple[str, ...] = ("full", "diagonal")
+    guards: tuple[int, ...] = (0, GUARD)
 
     def __post_init__(self) -> None:
         from ..errors import ConfigError
@@ -92,6 +96,8 @@ class SurrogateConfig:
             raise ConfigError("candidates", (), "at least one model class")
         if self.n_blocks < 2:
             raise ConfigError("n_blocks", self.n_blocks, "at least 2 held-out blocks")
+        if any(g < 0 for g in self.guards) or 0 not in self.guards:
+            raise ConfigError("guards", self.guards, "non-negative, 0 among them")
         if not (self.accept >= 1.0):
             raise ConfigError("accept", self.accept, "must be >= 1")
 
@@ -137,15 +143,21 @@ def identify(z: np.ndarray, f: np.ndarray, config: SurrogateConfig | None = None
                     # the switch found with the first (lowest) orders serves the others
                     m = SwitchedARX(nb, na, cp, switch.get(cp)).fit(z, f)
                     switch[cp] = m.switch_
+                    fits = [m] + [SwitchedARX(nb, na, cp, m.switch_, guard=g).fit(z, f)
+                                  for g in cfg.guards if g > 0]
                 else:
-                    m = CLASSES[cls](nb, na, cp).fit(z, f)
-                s = m.validate(z, f, cfg.n_blocks)
-                s_in = m.simulation_error(z, f)
+                    fits = [CLASSES[cls](nb, na, cp).fit(z, f)]
             except (np.linalg.LinAlgError, ValueError):
                 continue
-            cands.append(m)
-            scores.append(s)
-            insample.append(s_in)
+            for m in fits:
+                try:
+                    s = m.validate(z, f, cfg.n_blocks)
+                    s_in = m.simulation_error(z, f)
+                except (np.linalg.LinAlgError, ValueError):
+                    continue
+                cands.append(m)
+                scores.append(s)
+                insample.append(s_in)
     if not cands:
         raise RecordError("no part model could be fitted to z' and F'_m")
     # held-out error first; among equals (e.g. every candidate diverging on some held-out
@@ -207,6 +219,48 @@ def coupled_stability(record: Record) -> Callable[[LagModel], bool]:
     return stable
 
 
+def coupled_radii_of(record: Record) -> Callable[[LagModel], tuple[float, float]]:
+    """``model -> (r_lo, r_hi)``: the coupled spectral radii of each regime of a model on the
+    record's numerical substructure (:func:`~rths3d.surrogate.online.coupled_radii`; inf
+    where the map cannot be formed)."""
+    from ..numerical import discretise
+    from .online import coupled_radii
+
+    M, C, K, G, _ = numerical_of(record)
+    D = discretise(M, C, K, record.dt, "exact")
+    mats = (D.Ad, (D.G1 - D.G2) @ G, D.G2 @ G, G.T @ D.Cx)
+
+    def radii(model: LagModel) -> tuple[float, float]:
+        try:
+            return coupled_radii(*mats, model)
+        except np.linalg.LinAlgError:
+            return (math.inf, math.inf)
+
+    return radii
+
+
+def _halves(record: Record, model: LagModel) -> list[LagModel]:
+    """``model`` refitted on the first and on the second half of the record (bootstrap
+    blocks; those that fail to fit left out)."""
+    z, f = record.signal("z_meas"), record.signal("f_meas")
+    L = first_sample(model.nb, model.na)
+    n = len(z) - L
+    out = []
+    for rows in (np.arange(n) < n // 2, np.arange(n) >= n // 2):
+        try:
+            with np.errstate(all="ignore"):
+                out.append(model.refit(z, f, rows))
+        except (np.linalg.LinAlgError, ValueError):
+            continue
+    return out
+
+
+def _member_name(m: LagModel, halves: list, best: LagModel) -> str:
+    if m in halves:
+        return f"{best.label} {'first' if halves.index(m) == 0 else 'second'} half"
+    return m.label
+
+
 def numerical_of(record: Record):
     """The record's numerical substructure (M, C, K, Γ) and its load p (N, n)."""
     meta = record.meta or {}
@@ -233,16 +287,18 @@ def numerical_of(record: Record):
 
 
 def couple_members(records: Sequence[Record], members: Sequence[Sequence[LagModel]],
-                   config: SurrogateConfig | None = None) -> list[np.ndarray]:
+                   config: SurrogateConfig | None = None, *, with_forces: bool = False):
     """ẑ^r of every member of every record, coupled in one batch per record shape.
 
-    Returns per record an (M, N, d) array (NaN for a diverged member)."""
+    Returns per record an (M, N, d) array (NaN for a diverged member); ``with_forces``:
+    (that list, the members' part forces in the same shape)."""
     from ..numerical import LinearSubstructure
     from ..reference import couple_exact
     from .online import couple_closed_form
 
     cfg = config or SurrogateConfig()
     out: list[np.ndarray | None] = [None] * len(records)
+    forces: list[np.ndarray | None] = [None] * len(records)
     groups: dict[tuple, list[int]] = {}
     nums = [numerical_of(r) for r in records]
     for i, r in enumerate(records):
@@ -273,14 +329,16 @@ def couple_members(records: Sequence[Record], members: Sequence[Sequence[LagMode
                 ref = couple_closed_form(num, part, r0.n - 1)
             else:
                 ref = couple_exact(num, part, r0.n - 1, tol=cfg.tol, max_iter=cfg.max_iter)
-        zr = ref["z_ref"]
+        zr, fr = ref["z_ref"], ref["f_ref"]
         zr[part.diverged] = np.nan
+        fr[part.diverged] = np.nan
         k = 0
         for i in idx:
             n_m = len(members[i])
             out[i] = zr[k:k + n_m]
+            forces[i] = fr[k:k + n_m]
             k += n_m
-    return out  # type: ignore[return-value]
+    return (out, forces) if with_forces else out  # type: ignore[return-value]
 
 
 def _errors(zr: np.ndarray, zp: np.ndarray, dom: int) -> dict[str, float]:
@@ -311,7 +369,10 @@ class SurrogateReference:
     ``estimates_``
         dict of ê_rel,ref, ê_MRE,ref, ê_peak,ref, ê_rel,ref,f (dominant DOF, dimensionless)
         and ``e_rel_ref_std`` (spread of ê_rel,ref over the members), ``e_rel_ref_members``,
-        ``model`` (chosen candidate), ``validation`` (its output error), ``n_members``.
+        ``e_rel_ref_lo``, ``e_rel_ref_hi`` (the band, :func:`.checks.band`), ``model``
+        (chosen candidate), ``validation`` (its held-out output error), ``replay`` (its
+        free run over the whole record), ``n_members``, ``status`` (``ok``, ``unreliable``
+        or ``failed``), ``reliable`` and ``reason`` (:func:`.checks.flag_reasons`).
 
     ``columns(record)`` gives the per-step columns of a fitted record (see
     :func:`rths3d.surrogate.fidelity_columns`).
@@ -323,68 +384,99 @@ class SurrogateReference:
     def fit(self, records: Record | Sequence[Record]) -> SurrogateReference:
         single = isinstance(records, Record)
         recs = [records] if single else list(records)
+        cfg = self.config
         ids: list[Identification] = []
         for r in recs:
             dofs = r.dofs
             if not (r.has("z_meas", dofs) and r.has("f_meas", dofs)):
                 raise RecordError("the surrogate reference needs z_meas and f_meas columns "
                                   f"for every DOF ({', '.join(dofs)})")
-            ids.append(identify(r.signal("z_meas"), r.signal("f_meas"), self.config,
-                                stable=coupled_stability(r)))
-        zs = couple_members(recs, [i.members for i in ids], self.config)
-        # a record whose members all diverged when coupled (a model can fit the record well
-        # and still go unstable against a stiff numerical substructure, through dynamics
-        # the record never excited): the other candidates, in the order of their scores
-        redo = [i for i, zm in enumerate(zs) if not any(np.isfinite(m).all() for m in zm)]
-        if redo:
-            rest = []
-            for i in redo:
-                ident = ids[i]
-                rest.append([ident.candidates[j] for j in ident.order
-                             if ident.candidates[int(j)] not in ident.members])
-            keep = [k for k, r in enumerate(rest) if r]
-            if keep:
-                more = couple_members([recs[redo[k]] for k in keep], [rest[k] for k in keep],
-                                      self.config)
-                for k, zm in zip(keep, more, strict=True):
-                    i = redo[k]
-                    ids[i].members = rest[k]
-                    ids[i].member_names = [m.label for m in rest[k]]
-                    zs[i] = zm
+            ids.append(identify(r.signal("z_meas"), r.signal("f_meas"),
+                                replace(cfg, halves=False)))
+        # 1. every candidate coupled; each run checked (coupled_check)
+        radii = [coupled_radii_of(r) for r in recs]
+        zs, fs = couple_members(recs, [i.candidates for i in ids], cfg, with_forces=True)
+        peaks = [float(np.max(np.abs(r.signal("f_meas")))) for r in recs]
+        checks = [[check_run(m, radii[i](m), zs[i][j], fs[i][j], peaks[i], STABLE_RADIUS)
+                   for j, m in enumerate(ids[i].candidates)] for i in range(len(recs))]
+        # 2. the best consistent candidate (held-out error, then in-sample); its halves
+        best_j, halves = [], []
+        for i, ident in enumerate(ids):
+            ok = [c.ok for c in checks[i]]
+            alive = [np.isfinite(zs[i][j]).all() for j in range(len(ok))]
+            rank = np.lexsort((ident.insample, ident.scores, [not a for a in alive],
+                               [not v for v in ok]))
+            ident.order = [int(j) for j in rank]
+            j = int(rank[0])
+            best_j.append(j)
+            ident.model = ident.candidates[j]
+            hv = []
+            if cfg.halves and checks[i][j].ok:
+                hv = _halves(recs[i], ident.model)
+            halves.append(hv)
+        zh, fh = couple_members(recs, halves, cfg, with_forces=True)
         z_ref, est, members_z = [], [], []
-        for r, ident, zm in zip(recs, ids, zs, strict=True):
-            zp = r.signal("z_meas")
-            dom = dominant_dof(zp, r.signal("f_meas"))
-            ok = [j for j in range(len(zm)) if np.isfinite(zm[j]).all()]
-            vals = [_errors(zm[j], zp, dom) for j in ok]
-            if ok:
-                best = vals[0]
-                zr = zm[ok[0]]
-                rel = np.array([v["e_rel_ref"] for v in vals])
-                spread = float(np.std(rel)) if len(rel) > 1 else math.nan
-            else:
-                best = dict.fromkeys(("e_rel_ref", "e_mre_ref", "e_peak_ref", "e_rel_ref_f"),
-                                     math.nan)
-                zr = np.full_like(zp, np.nan)
-                rel = np.array([])
-                spread = math.nan
-            chosen = ident.members[ok[0]] if ok else ident.model
-            try:
-                score = ident.scores[ident.candidates.index(chosen)]
-            except ValueError:  # a half-record refit: the score of its structure
-                score = ident.scores[ident.candidates.index(ident.model)]
-            e = dict(best)
-            e.update({"e_rel_ref_std": spread, "e_rel_ref_members": rel.tolist(),
-                      "model": chosen.label, "validation": score, "n_members": len(ok)})
+        for i, (r, ident) in enumerate(zip(recs, ids, strict=True)):
+            est_i, zr, zm = self._estimate(r, ident, checks[i], best_j[i], zs[i], halves[i],
+                                           zh[i], fh[i], radii[i], peaks[i])
             z_ref.append(zr)
-            members_z.append(zm[ok] if ok else zm[:0])
-            est.append(e)
+            members_z.append(zm)
+            est.append(est_i)
         self.identification_ = ids[0] if single else ids
         self.z_ref_ = z_ref[0] if single else z_ref
         self.z_ref_members_ = members_z[0] if single else members_z
         self.estimates_ = est[0] if single else est
         self._records = recs
         return self
+
+    def _estimate(self, r: Record, ident: Identification, checks: list, j: int,
+                  zc: np.ndarray, halves: list, zh: np.ndarray, fh: np.ndarray, radii,
+                  peak: float) -> tuple[dict, np.ndarray, np.ndarray]:
+        """Members, estimate, band and flag of one record (see :mod:`.checks`)."""
+        cfg = self.config
+        zp = r.signal("z_meas")
+        dom = dominant_dof(zp, r.signal("f_meas"))
+        best = ident.candidates[j]
+        s0 = ident.scores[j]
+        members: list[LagModel] = []
+        runs: list[np.ndarray] = []
+        if np.isfinite(zc[j]).all():
+            members.append(best)
+            runs.append(zc[j])
+        for h, m in enumerate(halves):
+            if check_run(m, radii(m), zh[h], fh[h], peak, STABLE_RADIUS).ok:
+                members.append(m)
+                runs.append(zh[h])
+        for q in ident.order:
+            if q != j and checks[q].ok and ident.scores[q] <= cfg.accept * max(s0, 1e-12):
+                members.append(ident.candidates[q])
+                runs.append(zc[q])
+        ident.members = members
+        ident.member_names = [_member_name(m, halves, best) for m in members]
+        keys = ("e_rel_ref", "e_mre_ref", "e_peak_ref", "e_rel_ref_f")
+        if not members:
+            reason = ("every identified part model diverged when coupled to the numerical "
+                      "substructure: no estimate")
+            e = dict.fromkeys(keys, math.nan)
+            e.update({"e_rel_ref_std": math.nan, "e_rel_ref_members": [],
+                      "e_rel_ref_lo": math.nan, "e_rel_ref_hi": math.nan,
+                      "model": best.label, "validation": s0,
+                      "replay": ident.insample[j], "n_members": 0,
+                      "status": "failed", "reliable": False, "reason": reason})
+            return e, np.full_like(zp, np.nan), np.zeros((0,) + zp.shape)
+        vals = [_errors(z, zp, dom) for z in runs]
+        rel = np.array([v["e_rel_ref"] for v in vals])
+        lo, hi = band(rel, s0)
+        replay = ident.insample[j]
+        reasons = flag_reasons(checks[j].ok, checks[j], replay, rel)
+        e = dict(vals[0])
+        e.update({"e_rel_ref_std": float(np.std(rel)) if len(rel) > 1 else math.nan,
+                  "e_rel_ref_members": rel.tolist(), "e_rel_ref_lo": lo, "e_rel_ref_hi": hi,
+                  "model": best.label, "validation": s0, "replay": replay,
+                  "n_members": len(members), "status": "unreliable" if reasons else "ok",
+                  "reliable": not reasons,
+                  "reason": "; ".join(reasons)})
+        return e, runs[0], np.stack(runs)
 
     def columns(self, record: Record, index: int = 0) -> dict[str, np.ndarray]:
         """Per-step columns of the ``index``-th fitted record (see :func:`fidelity_columns`)."""

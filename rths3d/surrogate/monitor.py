@@ -70,6 +70,11 @@ class FidelityMonitor:
         self.failed: list[str] = [""] * len(self.scenes)
         self.identify_s = 0.0
         """Wall time of the identification after the warm-up (s; once per test group)."""
+        self.identify_cpu_s = 0.0
+        """Its processor time (s): what it costs whatever else the machine runs."""
+        self._rms = np.empty((0, 0, 0))
+        self.cpu_s = 0.0
+        """Processor time (s) spent in :meth:`update`, the identification included."""
         from ..numerical import LinearSubstructure
 
         if self.enabled and type(num) is not LinearSubstructure:
@@ -97,19 +102,30 @@ class FidelityMonitor:
         row n and act on any crossing."""
         if not self.enabled or n < self.warmup_rows:
             return
+        c0 = time.process_time()
+        try:
+            self._update(data, ci, n, stop)
+        finally:
+            self.cpu_s += time.process_time() - c0
+
+    def _update(self, data: np.ndarray, ci: dict[str, int], n: int, stop) -> None:
         c_z, c_f = ci[f"z_meas.{self.dofs[0]}"], ci[f"f_meas.{self.dofs[0]}"]
         d = len(self.dofs)
         if self.online is None:
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             self._identify(data[: n + 1, :, c_z:c_z + d], data[: n + 1, :, c_f:c_f + d])
             self.identify_s = time.perf_counter() - t0
+            self.identify_cpu_s = time.process_time() - c0
             if self.online is None:
                 return
         rows = self.watch
         zm = data[self.done + 1:n + 1, :, c_z:c_z + d]
         if rows.size != zm.shape[1]:
             zm = zm[:, rows]
-        rms = np.empty((n - self.done, rows.size, d))
+        m = n - self.done
+        if self._rms.shape[0] < m:  # the catch-up over the warm-up, then blocks reuse it
+            self._rms = np.empty((m, rows.size, d))
+        rms = self._rms[:m]
         crossed = self.online.update_block(
             self.done, n, np.ascontiguousarray(zm), self.warmup_rows, self._peak, self._lim,
             self._first, self._first_dof, self._first_val, rms)
@@ -210,6 +226,8 @@ class FidelityMonitor:
                                "model": self.models[k] or None,
                                "validation": float(self.validation[k]),
                                "identify_s": float(self.identify_s),
+                               "identify_cpu_s": float(self.identify_cpu_s),
+                               "cpu_s": float(self.cpu_s),
                                "peak": [float(v) for v in self.peak[k]],
                                "peak_after": float(s.fidelity_warmup),
                                "crossed": self.first[k]}

@@ -234,8 +234,14 @@ def couple_closed_form(num, part: LagPart, n_steps: int) -> dict[str, np.ndarray
 
 def coupled_radius(Ad: np.ndarray, Bf0: np.ndarray, Bf1: np.ndarray, Czx: np.ndarray,
                    model: LagModel) -> float:
+    """The larger of :func:`coupled_radii` (see there)."""
+    return max(coupled_radii(Ad, Bf0, Bf1, Czx, model))
+
+
+def coupled_radii(Ad: np.ndarray, Bf0: np.ndarray, Bf1: np.ndarray, Czx: np.ndarray,
+                  model: LagModel) -> tuple[float, float]:
     """Largest |eigenvalue| of the exactly coupled one-step map (numerical state, lag
-    buffers) of ``model`` in each of its regimes (the larger of the two).
+    buffers) of ``model`` in each of its regimes: (low, high).
 
     With a passive part on a damped numerical substructure the reference decays in every
     regime (the exchange's delay alone destabilises a test, and the reference has none), so
@@ -247,7 +253,7 @@ def coupled_radius(Ad: np.ndarray, Bf0: np.ndarray, Bf1: np.ndarray, Czx: np.nda
     nb, na, S = model.nb, model.na, Ad.shape[0]
     n_x = S + (nb + na) * d
     C = Czx @ Bf1
-    radius = 0.0
+    radii = []
     for th in (model.theta_lo_, model.theta_hi_):
         alpha = th[:, :d]
         rest_z = th[:, d:nb * d]                  # z_n … z_{n−nb+2}
@@ -265,8 +271,8 @@ def coupled_radius(Ad: np.ndarray, Bf0: np.ndarray, Bf1: np.ndarray, Czx: np.nda
         s1 = free - Bf1 @ f1
         rows = [s1, z1] + [zb[t] for t in range(nb - 1)] + [f1] + [fb[t] for t in range(na - 1)]
         T = np.vstack(rows)
-        radius = max(radius, float(np.max(np.abs(np.linalg.eigvals(T)))))
-    return radius
+        radii.append(float(np.max(np.abs(np.linalg.eigvals(T)))))
+    return radii[0], radii[1]
 
 
 class OnlineReference:

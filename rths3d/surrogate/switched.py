@@ -26,6 +26,24 @@ from .base import LagModel, Switch, check_signals, column_groups, delta_matrix, 
 C_GRID: tuple[float, ...] = (0.0, 0.05, 0.1, 0.2, 0.35, 0.5, 0.7, 1.0, 1.5, 2.5,
                              -0.05, -0.1, -0.2, -0.35, -0.5, -0.7, -1.0, -1.5, -2.5)
 """Multipliers of the data scale std(z)/std(F) tried for each component of c."""
+GUARD = 1
+"""Samples on either side of a change of regime left out of the regimes' fits: the step in
+which the part crosses its switch is neither regime (the switch is read at the start of the
+step, the contact begins within it). Fitted into the free regime, such steps bias it: on a
+2-DOF chain with an undamped contact part they gave the free regime a negative damping
+(coupled radius 1.0035) that the true part does not have."""
+
+
+def settled(hi: np.ndarray, guard: int) -> np.ndarray:
+    """Rows whose regime is the same ``guard`` rows before and after (bool, as ``hi``)."""
+    keep = np.ones(len(hi), dtype=bool)
+    for g in range(1, guard + 1):
+        change = hi[g:] != hi[:-g]
+        keep[g:] &= ~change
+        keep[:-g] &= ~change
+    return keep
+
+
 N_THRESHOLDS = 48
 """Candidate thresholds per direction (equal numbers of samples between them)."""
 
@@ -75,20 +93,30 @@ class SwitchedARX(LagModel):
     of the step keeps the force affine in z_n within every step, so that the exact coupling
     has exactly one solution per step (with z_n the regime can flip with the unknown z_n:
     two solutions or none).
+    ``guard``: rows on either side of a change of regime left out of the regimes' fits
+    (:data:`GUARD`; 0 fits every row).
     Fitted: ``theta_lo_``, ``theta_hi_`` (d, p), ``switch_``, ``residual_``.
     """
 
     name = "switched"
 
     def __init__(self, nb: int = 4, na: int = 2, coupling: str = "full",
-                 switch: Switch | None = None, timings: tuple[bool, ...] = (True,)):
+                 switch: Switch | None = None, timings: tuple[bool, ...] = (True,),
+                 guard: int = 0):
         super().__init__(nb, na, coupling)
         self.switch = switch
         self.timings = tuple(bool(t) for t in timings)
+        self.guard = int(guard)
+
+    @property
+    def label(self) -> str:
+        """As :attr:`LagModel.label`, with ``,g<guard>`` when transition rows are left out."""
+        base = super().label
+        return base if self.guard == 0 else f"{base[:-1]},g{self.guard})"
 
     def refit(self, z, f, rows=None) -> SwitchedARX:
         return SwitchedARX(self.nb, self.na, self.coupling, self.switch_,
-                           self.timings).fit(z, f, rows)
+                           self.timings, self.guard).fit(z, f, rows)
 
     def fit(self, z: np.ndarray, f: np.ndarray, rows: np.ndarray | None = None
             ) -> SwitchedARX:
@@ -96,13 +124,20 @@ class SwitchedARX(LagModel):
         d = z.shape[1]
         R, Y, s = lag_matrix(z, f, self.nb, self.na)
         zn, zl, fl = z[s:], z[s - 1:-1], f[s - 1:-1]
+        zn_all, zl_all, fl_all = zn, zl, fl
         if rows is not None:
             R, Y, zn, zl, fl = R[rows], Y[rows], zn[rows], zl[rows], fl[rows]
         T = delta_matrix(self.nb, self.na, d)
         sw = (self.switch if self.switch is not None else
               self._search(R, Y, zn, zl, fl, T, z, f))
         self.switch_ = sw
-        self._fit_regimes(R, Y, sw.w(zn, zl, fl) > 0, T)
+        hi = sw.w(zn_all, zl_all, fl_all) > 0
+        keep = settled(hi, self.guard)
+        if rows is not None:
+            hi, keep = hi[rows], keep[rows]
+        if keep.sum() < 0.5 * len(keep) or hi[keep].all() or not hi[keep].any():
+            keep = np.ones(len(hi), dtype=bool)  # too few settled rows: all of them
+        self._fit_regimes(R[keep], Y[keep], hi[keep], T)
         return self
 
     def _search(self, R, Y, zn, zl, fl, T, z, f) -> Switch:
