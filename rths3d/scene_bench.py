@@ -20,6 +20,7 @@ import numpy as np
 
 from .config import FEEDFORWARD, GRAVITY, HOLD, SAMPLE, ControllerConfig, PlatformDescription
 from .errors import ConfigError
+from .platform.calibration import CalibratedGeometry, load_geometry
 from .platform.geometry import DEFAULT_GEOMETRY, StewartGeometry
 from .record import DOFS
 
@@ -113,8 +114,6 @@ def platform_table(sec: Any) -> PlatformDescription:
                           "explicit anchors or the parametric pattern")
     try:
         if gfile:
-            from .platform.calibration import load_geometry
-
             if not Path(gfile).is_file():
                 raise ConfigError("platform.geometry_file", gfile, "file not found")
             try:
@@ -129,7 +128,7 @@ def platform_table(sec: Any) -> PlatformDescription:
             # the drawing's radii (plate and base meshes, viewer) from the anchors
             kw.setdefault("base_radius", float(np.mean(np.hypot(b[:, 0], b[:, 1]))))
             kw.setdefault("top_radius", float(np.mean(np.hypot(p[:, 0], p[:, 1]))))
-            geom = StewartGeometry(**kw).with_anchors(b, p)
+            geom = CalibratedGeometry.from_nominal(StewartGeometry(**kw), b, p, np.zeros(6))
         else:
             geom = StewartGeometry(**kw)
     except ConfigError as exc:
