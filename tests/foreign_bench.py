@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import mujoco
@@ -63,7 +63,6 @@ class ForeignBench:
     plate_iquat: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
     cylinder_mass: float = 2.0
     piston_mass: float = 1.0
-    fts_mass: float = 0.3
     fts_pose: tuple[float, ...] = (0.0, 0.0, 0.03, 0.0, 0.0, 0.0)
     kp: float = 2.0e5
     kv: float = 2.0e3
@@ -79,7 +78,22 @@ class ForeignBench:
     ctrl_top: np.ndarray | None = None
     encoder_offsets: tuple[float, ...] = (0.0,) * 6
     gravity_comp_scale: float = 1.0
-    extra: dict = field(default_factory=dict)
+    kp_scale: tuple[float, ...] = (1.0,) * 6
+    friction: tuple[float, ...] = (0.0,) * 6
+    """Dry friction of each slide (N), a stiff friction constraint (time constant 2 ms)."""
+    damping: tuple[float, ...] = (0.0,) * 6
+    """Viscous friction of each slide (N·s/m)."""
+    leg_delay: tuple[int, ...] = (0,) * 6
+    """Extra transport delay of each leg's set-point (whole samples)."""
+    leg_lag: tuple[float, ...] = (0.0,) * 6
+    """First-order lag of each leg's set-point (s), y += (1 − e^{−ΔT/τ})(u − y) per sample."""
+    fts_matrix: np.ndarray | None = None
+    fts_offset: tuple[float, ...] = (0.0,) * 6
+    """The sensor reads C w + b (a miscalibrated sensor)."""
+    site_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """The sensor's reference point off its place (m), the part unmoved."""
+    fixture_mass: float = 0.0
+    """An adapter mass (kg) on the sensor, 5 mm above its face."""
 
     def with_(self, **kw) -> ForeignBench:
         return replace(self, **kw)
@@ -105,7 +119,8 @@ class ForeignBench:
       <geom type="cylinder" size="0.02 {cl / 2}" pos="0 0 {cl / 2}" mass="{self.cylinder_mass}"
             contype="0" conaffinity="0"/>
       <body name="s{i}">
-        <joint name="sl{i}" type="slide" axis="0 0 1"/>
+        <joint name="sl{i}" type="slide" axis="0 0 1" frictionloss="{self.friction[i]}"
+               solreffriction="0.002 1" damping="{self.damping[i]}"/>
         <geom type="cylinder" size="0.012 {cl / 2}" pos="0 0 {L - cl / 2}"
               mass="{self.piston_mass}" contype="0" conaffinity="0"/>
         <site name="tip{i}" pos="0 0 {L}"/>
@@ -114,12 +129,16 @@ class ForeignBench:
         fx, fy, fz, frx, fry, frz = self.fts_pose
         fq = Rotation.from_euler("xyz", [frx, fry, frz]).as_quat(scalar_first=True)
         ip, iq, ii = self.plate_ipos, self.plate_iquat, self.plate_inertia
+        so = self.site_offset
+        fixture = (f'<geom type="sphere" size="0.01" pos="0 0 0.005" mass="{self.fixture_mass}" '
+                   'contype="0" conaffinity="0"/>' if self.fixture_mass else "")
         anchors = "\n".join(f'      <site name="a{i}" pos="{p[i][0]} {p[i][1]} {p[i][2]}"/>'
                             for i in range(6))
         conn = "\n".join(f'    <connect site1="tip{i}" site2="a{i}" solref="0.002 1" '
                          f'solimp="0.99 0.999 0.0001"/>' for i in range(6))
-        acts = "\n".join(f'    <general name="servo{i}" joint="sl{i}" gainprm="{self.kp}" '
-                         f'biastype="affine" biasprm="0 {-self.kp} {-self.kv}"/>'
+        kps = [self.kp * s for s in self.kp_scale]
+        acts = "\n".join(f'    <general name="servo{i}" joint="sl{i}" gainprm="{kps[i]}" '
+                         f'biastype="affine" biasprm="0 {-kps[i]} {-self.kv}"/>'
                          for i in range(6))
         return f"""<mujoco model="foreign_bench">
   <option timestep="{self.physics_dt}" integrator="RK4" gravity="0 0 -9.81"/>
@@ -130,12 +149,9 @@ class ForeignBench:
       <inertial pos="{ip[0]} {ip[1]} {ip[2]}" quat="{iq[0]} {iq[1]} {iq[2]} {iq[3]}"
                 mass="{self.plate_mass}" diaginertia="{ii[0]} {ii[1]} {ii[2]}"/>
 {anchors}
-      <body name="housing">
-        <geom type="cylinder" size="0.05 {fz / 2}" pos="{fx} {fy} {fz / 2}"
-              mass="{self.fts_mass}" contype="0" conaffinity="0"/>
-      </body>
       <body name="sensor_side" pos="{fx} {fy} {fz}" quat="{fq[0]} {fq[1]} {fq[2]} {fq[3]}">
-        <site name="sensor"/>
+        <site name="sensor" pos="{so[0]} {so[1]} {so[2]}"/>
+        {fixture}
 {self.part_xml}
       </body>
     </body>
@@ -194,7 +210,7 @@ class ForeignBench:
         for _ in range(3):
             advance(0.25, shift + grav)
             mujoco.mj_forward(model, data)
-            grav = data.actuator_force[:6] / self.kp
+            grav = data.actuator_force[:6] / (self.kp * np.asarray(self.kp_scale))
         grav = grav * self.gravity_comp_scale
         data.qvel[:] = 0.0
         advance(settle, shift + grav)
@@ -211,6 +227,9 @@ class ForeignBench:
             rec["leg"][row] = data.qpos[slide] + true_home + enc_off
             rec["legf"][row] = data.actuator_force[:6]
             w = np.r_[data.sensordata[fa:fa + 3], data.sensordata[ta:ta + 3]]
+            if self.fts_matrix is not None or any(self.fts_offset):
+                C = np.eye(6) if self.fts_matrix is None else np.asarray(self.fts_matrix)
+                w = C @ w + np.asarray(self.fts_offset)
             rec["fts"][row] = w
             Rs = data.site_xmat[site].reshape(3, 3)
             rec["fw"][row] = np.r_[Rs @ w[:3], Rs @ w[3:]]
@@ -218,7 +237,11 @@ class ForeignBench:
         sample(0)
         rest = {k: v[0].copy() for k, v in rec.items()}
         d = self.delay_samples
-        hist = [shift + grav] * (d + 1)
+        extra = max(self.leg_delay)
+        hist = [shift + grav] * (d + 1 + extra)
+        tcs = np.asarray(self.leg_lag, dtype=float)
+        lag = (shift + grav).copy() if np.any(tcs > 0) else None
+        alpha = np.where(tcs > 0, 1.0 - np.exp(-self.dt / np.where(tcs > 0, tcs, 1.0)), 1.0)
         Lprev = ctrl_home.copy()
         ffg = self.kv / self.kp / self.dt if self.velocity_ff else 0.0
         ends: list[int] = []
@@ -229,8 +252,14 @@ class ForeignBench:
             c = L - ctrl_home + ffg * (L - Lprev) + shift + grav
             Lprev = L
             hist.append(c)
-            cd = hist[-1 - d]
+            cd = hist[-1 - d].copy()
             hist.pop(0)
+            if extra:
+                for i in range(6):
+                    cd[i] = hist[-1 - d - self.leg_delay[i]][i]
+            if lag is not None:
+                lag[:] = lag + alpha * (cd - lag)
+                cd = lag.copy()
             if self.hold == "zoh":
                 advance(self.dt, cd)
             else:  # a ramp from the previous set-point, one value per physics step
@@ -288,20 +317,15 @@ def multisine(duration: float, dt: float = 1e-3, *, trans: float = 2.0e-3,
     return q * env[:, None]
 
 
-def plate_inertial(geometry) -> dict:
-    """The plate's own inertial (mass, ipos, iquat, diagonal inertia) as the scene's model
-    assumes it for ``geometry`` (a ``StewartGeometry``): the one property of the bench a
-    scene cannot state. Read from the compiled model with a vanishing sensor mass."""
-    from dataclasses import replace as _replace
-
-    from rths3d.platform.model import PlatformConfig, build_model
-
-    m = build_model(PlatformConfig(geometry=_replace(geometry, fts_mass=1e-9)))
-    b = m.body("plate").id
-    return {"plate_mass": float(m.body_mass[b]) - 1e-9,
-            "plate_ipos": tuple(float(v) for v in m.body_ipos[b]),
-            "plate_iquat": tuple(float(v) for v in m.body_iquat[b]),
-            "plate_inertia": tuple(float(v) for v in m.body_inertia[b])}
+def plate_inertial(model) -> dict:
+    """The plate's inertial (mass, ipos, iquat, diagonal inertia; the sensor housing
+    included) as the description's model (a compiled ``MjModel`` with a body ``plate``)
+    assumes it: the one property of the bench a scene cannot state."""
+    b = model.body("plate").id
+    return {"plate_mass": float(model.body_mass[b]),
+            "plate_ipos": tuple(float(v) for v in model.body_ipos[b]),
+            "plate_iquat": tuple(float(v) for v in model.body_iquat[b]),
+            "plate_inertia": tuple(float(v) for v in model.body_inertia[b])}
 
 
 def write_record(path: Path, channels: dict[str, np.ndarray], dt: float,

@@ -39,6 +39,8 @@ from ..effects import REGISTRY, WRENCH, get_effect, parse_label
 from ..errors import ConfigError, RecordError
 from ..record import DOFS, Record
 from .bench import resolve_bench
+from .candidates import PREFIX, Revision, is_revision
+from .candidates.screen import revise, screen_revisions
 from .localise import effective_samples, noise_floor, remaining_structure
 from .measurement import check_measurement
 
@@ -99,11 +101,13 @@ class Candidate:
     channel_share: dict[str, float] = field(default_factory=dict)
     detail: list[str] = field(default_factory=list)
     """Further facts (e.g. the kinematic calibration's identifiability report)."""
+    changes: dict[str, Any] = field(default_factory=dict)
+    """A description revision's changes of the scene (dotted key → new value)."""
 
     @property
     def leg(self) -> int:
         """The leg the candidate acts on (−1: none or all)."""
-        if self.effect in MULTI:
+        if self.effect in MULTI or is_revision(self.effect):
             return -1
         return parse_label(self.effect)[1]
 
@@ -111,7 +115,8 @@ class Candidate:
         """JSON-ready dict with the interface keys effect, params, score, error_before,
         error_after."""
         d = asdict(self)
-        d["params"] = {self.param: self.value} if self.effect not in MULTI else dict(self.values)
+        d["params"] = dict(self.changes) if is_revision(self.effect) else \
+            {self.param: self.value} if self.effect not in MULTI else dict(self.values)
         d["ci"] = list(self.ci)
         return d
 
@@ -197,12 +202,17 @@ class Diagnosis:
         Smallest relative fall of the validation error (noise units, squared) that counts.
     substeps:
         Physics substeps of the replay.
+    descriptions:
+        The description candidates screened beside the effects (names of
+        :data:`~.candidates.DESCRIPTIONS`; default all, ``()`` none): revisions of what the
+        scene states (the controller's conventions, the payload).
     """
 
     def __init__(self, record: Record, scene: Scene | None = None, *,
                  candidates: Iterable[str] | None = None, block: float = 0.5,
                  refit: int = 8, min_gain: float = 0.01, substeps: int = 1, nthread: int = 2,
-                 progress: Callable[[str], None] | None = None):
+                 progress: Callable[[str], None] | None = None,
+                 descriptions: Iterable[str] | None = None):
         chans = check_measurement(record)
         self.record = record
         self.warnings: list[str] = []
@@ -215,6 +225,12 @@ class Diagnosis:
         if inp.source == "z_cmd":
             self.warnings.append("the record has no pose_cmd.*: replaying z_cmd of the "
                                  f"interface DOFs {list(scene.dofs)} (other DOFs held at 0)")
+        self._inp, self._substeps, self._nthread = inp, substeps, nthread
+        self.descriptions = None if descriptions is None else tuple(descriptions)
+        self.revisions: list[dict[str, Any]] = []
+        """The parts of the description the diagnosis changed, in order: label and, per
+        dotted scene key, the value stated and the value accepted."""
+        self._revs: dict[str, Revision] = {}
         self.replay = BenchReplay(scene, inp, substeps=substeps, nthread=nthread)
         produced = set(self.replay.channels)
         self.ignored = tuple(c for c in chans if c not in produced)
@@ -435,6 +451,8 @@ class Diagnosis:
         """Accept an effect (``label``, start ``value``; ``fix=True`` holds it) — or a
         calibration's fitted ``values`` (held) — refit every free accepted effect jointly,
         log a waterfall step. Returns the accepted effects."""
+        if is_revision(label):
+            return self.revise(label)
         if label in MULTI or values is not None:
             vals = dict(values) if values is not None else self._multi(label, self.predict())
             if not vals:
@@ -456,16 +474,33 @@ class Diagnosis:
             if fix:
                 self.fixed.add(label)
             step = None
+        self._refit_free()
+        if step is None:
+            p = get_effect(parse_label(label)[0]).param
+            step = f"+ {label} ({p.name} = {self.accepted[label]:.4g} {p.unit})"
+        self._log_step(step)
+        return dict(self.accepted)
+
+    def _refit_free(self) -> None:
         free = {n: v for n, v in self.accepted.items() if n not in self.fixed}
         if free:
             held = {n: v for n, v in self.accepted.items() if n in self.fixed}
             vals, ci = self.fit(free, held)
             self.accepted.update(vals)
             self.cov.update(ci)
-        if step is None:
-            p = get_effect(parse_label(label)[0]).param
-            step = f"+ {label} ({p.name} = {self.accepted[label]:.4g} {p.unit})"
-        self._log_step(step)
+
+    def _screen_revisions(self) -> dict[str, tuple[Candidate, dict[str, np.ndarray]]]:
+        return {lab: (Candidate(lab, "scene", "", k=rev.k, changes=dict(rev.changes),
+                                detail=list(rev.detail)), out)
+                for lab, rev, out in screen_revisions(self)}
+
+    def revise(self, label: str) -> dict[str, float]:
+        """Accept a revision of the description (``scene:<key>=<value>``, as ranked): the
+        scene is rewritten, every free accepted effect refitted on it, a waterfall step
+        logged and the change kept in :attr:`revisions`. Returns the accepted effects."""
+        revise(self, label)
+        self._refit_free()
+        self._log_step(f"~ {label.removeprefix(PREFIX)}")
         return dict(self.accepted)
 
     def _multi(self, label: str, base: Mapping[str, np.ndarray]) -> dict[str, float] | None:
@@ -506,7 +541,8 @@ class Diagnosis:
             probes[lab] = p
             cands[lab] = Candidate(lab, eff.param.name, eff.param.unit)
             trials[lab] = {**self.accepted, lab: p}
-        self.progress(f"screen {len(trials)} candidates")
+        revs = self._screen_revisions()
+        self.progress(f"screen {len(trials)} candidates and {len(revs)} revisions")
         outs = dict(zip(trials, self.outputs(list(trials.values())), strict=True))
         # linear estimate along each probe's sensitivity
         est: dict[str, float] = {}
@@ -579,6 +615,8 @@ class Diagnosis:
         for k in cands:
             if k in MULTI and k in trials and k in deltas:
                 fin[k], final_sets[k] = outs[k], trials[k]
+        for k, (cand, out) in revs.items():  # revisions of the description: replayed once
+            cands[k], fin[k], final_sets[k] = cand, out, dict(self.accepted)
         lin: dict[str, dict[str, np.ndarray]] = {}
         for k in cands:
             if k in fin or k not in est or k in MULTI:
@@ -607,7 +645,9 @@ class Diagnosis:
             cand.score = neff * math.log(sse0 / sse1) - cand.k * math.log(neff) \
                 if sse1 > 0 and sse0 > 0 else -math.inf
             g = 1.0 - (cand.error_after / cand.error_before) ** 2 if cand.error_before else 0.0
-            if k in MULTI:
+            if is_revision(k):
+                excludes = self._revs[k].excludes_current(self.scene)
+            elif k in MULTI:
                 cand.values = {lab: final_sets[k][lab] for lab in trials[k]
                                if lab not in self.accepted}
                 excludes = True
@@ -703,7 +743,9 @@ class Diagnosis:
             if res.proposal is None:
                 break
             p = res.proposal
-            if p.effect in MULTI:
+            if is_revision(p.effect):
+                self.revise(p.effect)
+            elif p.effect in MULTI:
                 self.add(p.effect, values=p.values)
             else:
                 self.add(p.effect, p.value)
