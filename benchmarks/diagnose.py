@@ -1,11 +1,14 @@
-"""Benchmark: diagnosis of 10 s measurements with every candidate effect.
+"""Benchmark: diagnosis of 5 s and 10 s measurements with every candidate effect.
 
-Prints ONE JSON line. ``diagnose_6dof_10s_s``: median wall time (s) to load a 10 s
-measurement of the six-DOF bench test (scene ``bench6``, made closed loop with a hidden
-Coulomb friction on leg 2, 4 substeps, noise), replay the bench, screen *every* candidate
-(each effect on each leg and axis, the kinematic and FTS calibrations), refit the best
-``refit`` and rank them. ``diagnose_10s_s``: the same for a heave test (``paper_contact``
-through the Stewart platform, hidden friction on leg 4). ``found`` says whether the hidden
+Prints ONE JSON line. ``diagnose_6dof_5s_s``: as the next, for a 5 s record (floor 15 s,
+``floor_6dof_5s_s``), with its round's stages ``diagnose_6dof_5s_screen_s``, ``…_refit_s``,
+``…_rank_s`` (``RoundResult.seconds``) and the ``threads`` they ran on.
+``diagnose_6dof_10s_s``: median wall time (s) to load a 10 s measurement of the six-DOF
+bench test (scene ``bench6``, made closed loop with a hidden Coulomb friction on leg 2, 4
+substeps, noise), replay the bench, screen *every* candidate (each effect on each leg and
+axis, the kinematic and FTS calibrations), refit the best ``refit`` and rank them.
+``diagnose_10s_s``: the same for a heave test (``paper_contact`` through the Stewart
+platform, hidden friction on leg 4). ``found`` says whether the hidden
 effect ranked first in both; ``replay_10s_s`` is one 10 s replay alone, ``replay_batch_s``
 the screening batch alone (all physics candidates in one ``platform_batch``, 2 threads),
 ``per_sim_step_us`` its cost per simulated step and candidate. ``--quick``: one repetition.
@@ -35,11 +38,12 @@ def main() -> None:
     reps = 1 if args.quick else args.repeat
     out: dict = {}
     with tempfile.TemporaryDirectory() as tmp:
-        for key, scene, hidden in (
-                ("diagnose_6dof_10s_s", "bench6", "coulomb_friction.leg2"),
-                ("diagnose_10s_s", "paper_contact", "coulomb_friction.leg4")):
-            sc = load_scene(scene, ["duration=10.0", "transfer.kind='stewart'"])
-            path = measure(sc, {hidden: 30.0}, seed=7).save(Path(tmp) / f"{scene}.parquet")
+        for key, scene, hidden, dur in (
+                ("diagnose_6dof_5s_s", "bench6", "coulomb_friction.leg2", 5.0),
+                ("diagnose_6dof_10s_s", "bench6", "coulomb_friction.leg2", 10.0),
+                ("diagnose_10s_s", "paper_contact", "coulomb_friction.leg4", 10.0)):
+            sc = load_scene(scene, [f"duration={dur}", "transfer.kind='stewart'"])
+            path = measure(sc, {hidden: 30.0}, seed=7).save(Path(tmp) / f"{key}.parquet")
             times, found = [], []
             for _ in range(reps):
                 t0 = time.perf_counter()
@@ -52,6 +56,11 @@ def main() -> None:
             out[key.replace("_s", "_found")] = all(found)
             out[key.replace("_s", "_candidates")] = len(diag.candidate_names)
             out[key.replace("_s", "_simulations")] = diag.nsim
+            if dur == 5.0:
+                for stage in ("screen", "refit", "rank"):
+                    out[f"{key[:-2]}_{stage}_s"] = round(res.seconds[stage], 3)
+                out["threads"] = int(res.seconds["threads"])
+                continue
             if scene == "bench6":
                 # the physics alone: one replay, and the screening batch
                 from rths3d.diagnose.engine import MULTI
@@ -70,7 +79,8 @@ def main() -> None:
                 out["replay_batch_s"] = round(batch, 3)
                 out["replay_batch_size"] = len(probe)
                 out["per_sim_step_us"] = round(1e6 * batch / (len(probe) * rec.n), 2)
-    out.update({"samples": rec.n, "repeat": reps, "floor_6dof_s": 60.0, "floor_s": 120.0})
+    out.update({"samples": rec.n, "repeat": reps, "floor_6dof_s": 60.0, "floor_s": 120.0,
+                "floor_6dof_5s_s": 15.0})
     print(json.dumps(out))
 
 

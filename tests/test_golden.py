@@ -29,6 +29,12 @@ MUJOCO_PART = {"multidof_ideal": 1e-10, "multidof_delay": 1e-10, "multidof_lti":
                "contact_stewart": 2e-12, "contact_stewart_noise": 2e-12,
                "contact_stops": 2e-12, "multidof_stewart": 2e-12}
 """Cases whose tolerance is the old code's own single-vs-batch spread (module docstring)."""
+TOOLCHAIN = 1e-9
+"""Floor of every tolerance: the same code compiled by another numba/LLVM and numpy rounds
+differently. Measured on 2026-11-27 (numba 0.68.1, numpy 2.4.6, mujoco 4.0.0) against the
+goldens made with older releases: up to 2.2e-10 of peak (the multi-DOF part's reference),
+4.4e-11 (the linear part on the platform), 2.2e-12 (the platform's leg forces). A change of
+physics, a convention or a step order shows at 1e-6 and above."""
 
 
 @pytest.mark.parametrize("name", sorted(golden.cases()))
@@ -43,7 +49,7 @@ def test_record_equals_golden(name):
         if "/#" not in key:
             family = key.split(".")[0]
             peak[family] = max(peak.get(family, 0.0), float(np.max(np.abs(want[key]))))
-    rel = MUJOCO_PART.get(name, REL)
+    rel = max(MUJOCO_PART.get(name, REL), TOOLCHAIN)
     for key in want:
         if "/#" in key:
             assert str(got[key]) == str(want[key]), key

@@ -252,10 +252,12 @@ def setpoint_blocks(benches: Sequence[Bench]) -> list[Block]:
 
 
 def platform_batch(benches: Sequence[Bench], nthread: int = 2, settle: float = 0.05,
-                   models: Sequence[Any] | None = None):  # -> PlatformBatch
+                   models: Sequence[Any] | None = None,
+                   replay: bool = False):  # -> PlatformBatch
     """K benches stepped together: one :class:`~rths3d.platform.sim.PlatformBatch` with each
     bench's true model, the nominal model's gravity compensation, the set-point blocks, the
-    encoder bias and the FTS calibration. ``models``: the true models when already built."""
+    encoder bias and the FTS calibration. ``models``: the true models when already built;
+    ``replay``: an open-loop replay (:class:`~rths3d.platform.sim.PlatformBatch`)."""
     from ..platform.sim import PlatformBatch
 
     K = len(benches)
@@ -271,4 +273,4 @@ def platform_batch(benches: Sequence[Bench], nthread: int = 2, settle: float = 0
                          blocks=setpoint_blocks(benches),
                          bias=np.stack([b.bias() for b in benches]),
                          gravity_scale=np.array([b.gravity_scale() for b in benches]),
-                         fts_matrix=C, fts_offset=bo)
+                         fts_matrix=C, fts_offset=bo, replay=replay)

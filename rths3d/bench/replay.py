@@ -86,11 +86,16 @@ class BenchReplay:
         well below sensor noise, :mod:`rths3d.platform.sim`).
     nthread:
         Threads of the batched MuJoCo stepping.
+    base:
+        The bench to replay when it is given as a :class:`Bench` (its platform with the
+        controller's conventions, part and effects) rather than by ``scene``, which then
+        supplies the interface DOFs and the force-sensor chain.
     """
 
     def __init__(self, scene: Scene, poses: ReplayInput | np.ndarray, *, substeps: int = 1,
-                 nthread: int = 2):
+                 nthread: int = 2, base: Bench | None = None):
         self.scene = scene
+        self.base = base
         p = poses.poses if isinstance(poses, ReplayInput) else np.asarray(poses, dtype=float)
         if p.ndim != 2 or p.shape[1] != 6 or p.shape[0] < 2:
             raise ConfigError("poses", f"array of shape {p.shape}", "need (N, 6), N >= 2")
@@ -104,6 +109,9 @@ class BenchReplay:
 
     def bench(self, effects: Sequence[EffectConfig]) -> Bench:
         """The replay's bench with ``effects``."""
+        if self.base is not None:
+            return dataclasses.replace(self.base, effects=tuple(effects), platform=(
+                dataclasses.replace(self.base.platform, substeps=self.substeps)))
         return Bench.from_scene(self.scene, substeps=self.substeps, effects=tuple(effects))
 
     def _sensor(self, effect_sets: Sequence[Sequence[EffectConfig]]):
@@ -140,7 +148,7 @@ class BenchReplay:
         K = len(benches)
         N = self.poses.shape[0]
         n = len(self.dofs)
-        sim = platform_batch(benches, nthread=self.nthread, models=models)
+        sim = platform_batch(benches, nthread=self.nthread, models=models, replay=True)
         self.nsim += K
         sensor = self._sensor(effect_sets)
         sensor.reset()
@@ -151,7 +159,7 @@ class BenchReplay:
         ft = np.zeros((N, K, 6))
         zz = np.zeros((N, K, n))
         ff = np.zeros((N, K, n))
-        q[0] = sim.plate_qpos
+        q[0] = sim.live_qpos
         lq[0] = sim._legs_q
         lf[0] = sim._legs_f
         ft[0] = sim.fts_reading
@@ -159,31 +167,52 @@ class BenchReplay:
         f = np.zeros((K, n))
         stop = np.full(K, N)
         P = self.poses
-        # the forces of step r are read after step r + 1 (its start is step r's end:
-        # PlatformBatch._advance(sample=False)), the pose right after step r
+        # a ramped set-point is a state (the servo's activation), so step r + 1's evaluation
+        # at its start is step r's end-of-step sample: the forces of step r are read after
+        # step r + 1 (PlatformBatch._advance(sample=False)), the pose right after step r. A
+        # held set-point jumps at the start of the step: then every step samples its end.
+        lazy = not sim.any_zoh
         for r in range(1, N):
             sim.poses[:] = P[r]
-            sim._advance(sample=False)
-            sim._read_fts()
-            sim.read_start(idx, z, f)
+            sim.poses_next[:] = P[min(r + 1, N - 1)]
+            if lazy:
+                sim._advance(sample=False)
+                sim._read_fts()
+                sim.read_start(idx, z, f)
+                if r >= 2:
+                    ff[r - 1] = f
+                    lf[r - 1] = sim.leg_force_sensor
+                    ft[r - 1] = sim.fts_reading
+            else:
+                sim._advance()
+                sim.read(idx, z, f)
+                ff[r] = f
+                lf[r] = sim._legs_f
+                ft[r] = sim.fts_reading
             zz[r] = z
-            q[r] = sim.plate_qpos
+            q[r] = sim.live_qpos
             lq[r] = sim._legs_q
-            if r >= 2:
-                ff[r - 1] = f if sensor.empty else sensor(f)
-                lf[r - 1] = sim.leg_force_sensor
-                ft[r - 1] = sim.fts_reading
             if sim._any_stopped:
                 for k in np.flatnonzero(sim.stopped & (stop == N)):
                     stop[k] = r
                 if sim.stopped.all():
                     break
-        sim.batch.forward()
-        sim._read_fts()
-        sim.read(idx, z, f)
-        ff[N - 1] = f if sensor.empty else sensor(f)
-        lf[N - 1] = sim._legs_f
-        ft[N - 1] = sim.fts_reading
+        if lazy:
+            sim.batch.forward()
+            sim._read_fts()
+            sim.read(idx, z, f)
+            ff[N - 1] = f
+            lf[N - 1] = sim._legs_f
+            ft[N - 1] = sim.fts_reading
+        # a bench that samples at the start of the step records every channel one row
+        # earlier: row r holds the state at the end of step r − 1 (row 0, the rest, stays)
+        shift = np.flatnonzero(sim.sample_start)
+        for arr in (q, lq, lf, ft, zz, ff):
+            arr[1:, shift] = arr[:-1, shift]
+        stop[shift] = np.minimum(stop[shift] + 1, N)
+        if not sensor.empty:
+            for r in range(1, N):
+                ff[r] = sensor(ff[r])
         pose = plate_pose(q, sim._hh)
         enc = sim.encoder_lengths(lq)
         out = []

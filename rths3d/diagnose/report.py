@@ -276,7 +276,13 @@ def write_report(diag: Diagnosis, result: RoundResult, out_dir: str | Path,
             f"`{k}`: {v['stated']!r} → {v['revised']!r}" for k, v in r["changes"].items()))
     lines += [f"- accepted effects: {acc}",
               f"- error (noise units, 1 = only noise): training {result.error_train:.3f}, "
-              f"validation {result.error_val:.3f}; status **{result.status}**", ""]
+              f"validation {result.error_val:.3f}; status **{result.status}**"]
+    if result.seconds:
+        t = result.seconds
+        lines.append(f"- round time: {t['round']:.1f} s (screening {t['screen']:.1f} s, refits "
+                     f"{t['refit']:.1f} s, ranking {t['rank']:.2f} s; "
+                     f"{t['simulations']:.0f} replays on {t['threads']:.0f} threads)")
+    lines.append("")
     lines += _verdict(result)
     lines += ["## Per-channel residual", "", "| channel | RMS residual | noise σ | FEI amplitude "
               "| FEI delay (ms) |", "|---|---|---|---|---|"]

@@ -186,13 +186,33 @@ def rotation(rx, ry, rz):  # pragma: no cover - jit
 
 
 @njit
-def leg_setpoints(poses, b, p, hh, home, ffg, Lprev, L, sp, half, vdt, run, ik):
+def leg_lengths_of(poses, b, p, hh, L):
+    """Leg lengths (K, 6) of the poses (K, 6) relative to home: the inverse kinematics of
+    :func:`leg_setpoints`."""
+    for k in range(poses.shape[0]):
+        x, y, tz = poses[k, 0], poses[k, 1], poses[k, 2] + hh
+        r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation(
+            poses[k, 3], poses[k, 4], poses[k, 5])
+        for i in range(6):
+            px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+            lx = x + r00 * px + r01 * py + r02 * pz - b[i, 0]
+            ly = y + r10 * px + r11 * py + r12 * pz - b[i, 1]
+            lz = tz + r20 * px + r21 * py + r22 * pz - b[i, 2]
+            L[k, i] = math.sqrt(lx * lx + ly * ly + lz * lz)
+
+
+@njit
+def leg_setpoints(poses, b, p, hh, home, ffg, Lprev, L, sp, half, vdt, run, ik,
+                  ffn, Lnext, ahead):
     """Inverse kinematics, command limits and leg set-points of K platforms.
 
     Leg i of test k: L = |t + R p_i − b_i| with R = :func:`rotation` and t the plate position
     (home height ``hh`` added); the set-point ``L − L_home + g_ff·ΔL`` (velocity feed-forward
     g_ff = kv/(kp ΔT); the set-point blocks, gravity compensation and encoder bias follow in
-    :func:`ramp_ctrl`) written to ``sp[k, i]`` for the tests in ``run``. Returns the number
+    :func:`ramp_ctrl`) written to ``sp[k, i]`` for the tests in ``run``. ``ahead``: the
+    lengths ``Lnext`` of the next commanded poses are known (an open-loop replay) and the
+    forward difference adds ``ffn·(L_next − L)`` (central feed-forward: ``ffg = ffn =
+    kv/(2 kp ΔT)``). Returns the number
     of running tests whose command leaves the stroke (±``half``) or the speed
     (|ΔL| ≤ ``vdt``); those keep their set-point and ``Lprev`` (the caller stops them).
     ``ik`` False: the lengths already in ``L`` are the ones to command (per-leg
@@ -223,6 +243,9 @@ def leg_setpoints(poses, b, p, hh, home, ffg, Lprev, L, sp, half, vdt, run, ik):
         for i in range(6):
             sp[k, i] = L[k, i] - home[i] + ffg[k] * (L[k, i] - Lprev[k, i])
             Lprev[k, i] = L[k, i]
+        if ahead:
+            for i in range(6):
+                sp[k, i] += ffn[k] * (Lnext[k, i] - L[k, i])
     return bad
 
 
@@ -283,17 +306,22 @@ def interface_command(u, idx, poses):
 
 
 @njit
-def ramp_ctrl(y, off, bias, cprev, cnew, ctrl, a0, inv_dt, run):
+def ramp_ctrl(y, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0):
     """Set-points of K platforms for the end of the step, ``cnew = y + off + bias`` (block
     output, gravity compensation, encoder bias), and the set-point rate ``(cnew − cprev)/ΔT``
     written to ``ctrl[k, a0 + i]`` (the servo integrates it: a linear ramp over the step);
-    stopped tests hold (rate 0)."""
+    a zero-order hold (``zoh[k]``) instead sets the servo's set-point (activation
+    ``act[k, s0 + i]``) to ``cnew`` now and holds it (rate 0); stopped tests hold (rate 0)."""
     for k in range(y.shape[0]):
         for i in range(6):
             if run[k]:
                 c = y[k, i] + off[k, i] + bias[k, i]
                 cnew[k, i] = c
-                ctrl[k, a0 + i] = (c - cprev[k, i]) * inv_dt
+                if zoh[k]:
+                    act[k, s0 + i] = c
+                    ctrl[k, a0 + i] = 0.0
+                else:
+                    ctrl[k, a0 + i] = (c - cprev[k, i]) * inv_dt
             else:
                 ctrl[k, a0 + i] = 0.0
 
@@ -307,6 +335,28 @@ def end_ramp(cnew, cprev, act, s0, run):
             for i in range(6):
                 act[k, s0 + i] = cnew[k, i]
                 cprev[k, i] = cnew[k, i]
+
+
+@njit
+def take_sample(start, want, q, lq, lf, R, qm, lqm, lfm, Rm, sf, st, C, bo, reading):
+    """The measured channels of the tests whose sampling instant ``start[k]`` is ``want``:
+    plate qpos, leg extensions and forces, the FTS orientation (row-major) and its reading
+    ``C w + b`` copied from the live state into the sample buffers."""
+    for k in range(q.shape[0]):
+        if start[k] != want:
+            continue
+        for c in range(q.shape[1]):
+            qm[k, c] = q[k, c]
+        for i in range(6):
+            lqm[k, i] = lq[k, i]
+            lfm[k, i] = lf[k, i]
+        for c in range(9):
+            Rm[k, c] = R[k, c]
+        for r in range(6):
+            acc = bo[k, r]
+            for c in range(3):
+                acc += C[k, r, c] * sf[k, c] + C[k, r, 3 + c] * st[k, c]
+            reading[k, r] = acc
 
 
 @njit
@@ -346,6 +396,17 @@ def fts_distort(sf, st, C, b, of, ot):
                 of[k, r] = acc
             else:
                 ot[k, r - 3] = acc
+
+
+def _ff_gains(config: PlatformConfig) -> tuple[float, float]:
+    """Velocity feed-forward gains (1/1) on the backward and forward differences of the
+    commanded leg lengths: ``kv/(kp ΔT)`` on the backward one (``"backward"``), half of it on
+    each (``"central"``: (L_{k+2} − L_k)/(2ΔT)), none (``"none"`` or ``velocity_ff`` off)."""
+    a = config.actuator
+    if not a.velocity_ff or a.feedforward == "none":
+        return 0.0, 0.0
+    g = a.kv / a.kp / config.dt
+    return (g, 0.0) if a.feedforward == "backward" else (0.5 * g, 0.5 * g)
 
 
 class _OneSim:
@@ -435,6 +496,17 @@ class PlatformBatch:
     the compensated weight relative to the nominal model's; ``fts_matrix`` (K, 6, 6) and
     ``fts_offset`` (K, 6): a miscalibrated FTS reads ``C w + b``.
 
+    The controller's conventions are each test's ``config.actuator`` data
+    (:class:`~rths3d.platform.model.ActuatorConfig`): ``hold`` (the servo's set-point ramps
+    to c_{k+1} over the step, or jumps to it at the start and is held), ``sample`` (the
+    measured channels — ``plate_qpos``, leg extensions and forces, FTS — are the state at
+    the end of the step, or at its start: one sample earlier, which :meth:`step_interface`
+    then hands to the loop) and ``feedforward`` (backward, central or none). ``replay``:
+    an open-loop replay of a known command series; it may set :attr:`poses_next` (the pose
+    commanded at the next step) for a central feed-forward, and every test is sampled at the
+    end (the replay shifts the rows of start-sampled tests itself). Without it a central
+    feed-forward is refused (a closed loop does not know its next set-point).
+
     After changing masses or inertias of the batch in place (``batch.batch.body(name).mass
     = ...``) call ``reset(set_const=True)``. One test (``nsim = 1``) steps a plain ``MjData``.
     """
@@ -447,7 +519,8 @@ class PlatformBatch:
                  configs: Sequence[PlatformConfig] | None = None,
                  blocks: Sequence[Block] = (), bias: np.ndarray | None = None,
                  gravity_scale: np.ndarray | None = None,
-                 fts_matrix: np.ndarray | None = None, fts_offset: np.ndarray | None = None):
+                 fts_matrix: np.ndarray | None = None, fts_offset: np.ndarray | None = None,
+                 replay: bool = False):
         if not (isinstance(nsim, int) and nsim >= 1):
             raise ConfigError("nsim", nsim, "must be an integer >= 1")
         cfgs = None
@@ -519,9 +592,27 @@ class PlatformBatch:
         self._vmax = float(config.velocity_limit)
         self._vdt = self._vmax * config.dt
         self._fmax = float(config.force_limit)
-        # velocity feed-forward gain per test
-        self._ffg = np.array([(c.actuator.kv / c.actuator.kp / c.dt)
-                              if c.actuator.velocity_ff else 0.0 for c in self._cfgs])
+        # the controller's conventions per test, as data: velocity feed-forward gains on the
+        # backward (ffg) and forward (ffn) differences of the leg lengths, hold and sampling
+        gains = [_ff_gains(c) for c in self._cfgs]
+        self._ffg = np.array([g_[0] for g_ in gains])
+        self._ffn = np.array([g_[1] for g_ in gains])
+        self._ahead = bool(np.any(self._ffn != 0.0))
+        if self._ahead and not replay:
+            raise ConfigError("controller.feedforward", "central", "needs the next "
+                              "set-point: only an open-loop replay of a known command has it, "
+                              "not a closed loop; use backward or none")
+        self._zoh = np.array([c.actuator.hold == "zoh" for c in self._cfgs], dtype=np.bool_)
+        self.any_zoh = bool(self._zoh.any())
+        """Whether a test holds its set-points (zero-order hold)."""
+        self._start = np.array([c.actuator.sample == "start" and not replay
+                                for c in self._cfgs], dtype=np.bool_)
+        self._any_start = bool(self._start.any())
+        self.sample_start = np.array([c.actuator.sample == "start" for c in self._cfgs])
+        """Which tests' controllers sample their channels at the start of the step."""
+        self.poses_next = np.zeros((nsim, 6))
+        """The poses (K, 6) commanded at the next step (a replay's central feed-forward)."""
+        self._Lnext = np.zeros((nsim, 6))
         ids = self.ids
         self._a0 = int(ids.act[0])
         qs = int(ids.slide_qpos[1] - ids.slide_qpos[0])
@@ -536,8 +627,16 @@ class PlatformBatch:
         self._p = np.ascontiguousarray(g.top_anchors(), dtype=float)
         self._hh = float(g.home_height)
         pa = self.ids.plate_qpos
-        self.plate_qpos = self._qpos[:, pa:pa + 7]
+        self.live_qpos = self._qpos[:, pa:pa + 7]
         """Live (K, 7) view of the plate's free-joint qpos (position m, quaternion wxyz)."""
+        self.plate_qpos = self.live_qpos
+        """The measured plate qpos (K, 7) of the last sample (position m, quaternion wxyz):
+        the live view when every test samples at the end of the step."""
+        self.meas_legs_q = self._legs_q
+        """Measured leg extensions (K, 6) of the last sample, m (encoders: add
+        :meth:`encoder_lengths`)."""
+        self.meas_legs_f = self._legs_f
+        """Measured leg forces (K, 6) of the last sample, N."""
         fa, ta = self.ids.force_adr, self.ids.torque_adr
         self._raw_force = self._sensor[:, fa:fa + 3]
         self._raw_torque = self._sensor[:, ta:ta + 3]
@@ -556,6 +655,16 @@ class PlatformBatch:
             self._fts_C = None
             self._fts_b = np.zeros((nsim, 6))
         self._fts_R = self._xmat[:, self.ids.fts_site]
+        if self._any_start:
+            # sample buffers: a start-sampled test keeps the state before its step's
+            # set-point acts, an end-sampled one the state after
+            self._live_R = self._fts_R
+            self.plate_qpos = np.zeros((nsim, 7))
+            self.meas_legs_q = np.zeros((nsim, 6))
+            self.meas_legs_f = np.zeros((nsim, 6))
+            self._fts_R = np.zeros((nsim, 9))
+            if self._fts_C is None:
+                self._fts_C = np.tile(np.eye(6), (nsim, 1, 1))
         la, qa = self.ids.legf_adr, self.ids.quat_adr
         self.leg_force_sensor = self._sensor[:, la:la + 6]
         """Live (K, 6) leg forces from the sensors (N): the start-of-step evaluation."""
@@ -686,6 +795,9 @@ class PlatformBatch:
         # channels of the settled state (a step leaves them at the start of its last substep)
         self.batch.forward()
         self._read_fts()
+        if self._any_start:
+            self._sample(True)
+            self._sample(False)
         self.k = 0
         self._check_status(settling=True)
         # zero and tare at measured rest, as a bench does
@@ -696,6 +808,14 @@ class PlatformBatch:
         self.rest_pose[:] = plate_pose(self.plate_qpos, self._hh)
         self.rest_leg_forces[:] = self._legs_f
         self._fresh = not self._any_stopped
+
+    def _sample(self, start: bool) -> None:
+        """Copy the live channels of the tests sampled at the start (``start``) or at the end
+        of the step into the sample buffers (only when a test samples at the start)."""
+        take_sample(self._start, start, self.live_qpos, self._legs_q, self._legs_f,
+                    self._live_R, self.plate_qpos, self.meas_legs_q, self.meas_legs_f,
+                    self._fts_R, self._raw_force, self._raw_torque, self._fts_C, self._fts_b,
+                    self.fts_reading)
 
     def _read_fts(self) -> None:
         if self._fts_C is not None:
@@ -777,8 +897,13 @@ class PlatformBatch:
             # per-leg compensation: the hook writes the lengths to command into _L (from the
             # poses, with this platform's anchors); the call below checks and writes those
             self.leg_hook(self._L)
+        if self._ahead:
+            leg_lengths_of(self.poses_next, self._b, self._p, self._hh, self._Lnext)
+        if self._any_start:  # the state before this step's set-point acts
+            self._sample(True)
         if leg_setpoints(self.poses, self._b, self._p, self._hh, self._home, self._ffg,
-                         self._Lprev, self._L, sp, self._half, self._vdt, self._run, ik):
+                         self._Lprev, self._L, sp, self._half, self._vdt, self._run, ik,
+                         self._ffn, self._Lnext, self._ahead):
             self._command_limits(self._L - self._home, self._L - self._Lprev)
         y = sp if self.setpoint_chain.empty else self.setpoint_chain(sp)
         run = self._run
@@ -787,7 +912,7 @@ class PlatformBatch:
             self.k += 1
             return
         ramp_ctrl(y, self._off, self._bias, self._cprev, self._cnew, self._ctrl, self._a0,
-                  self._inv_dt, run)
+                  self._inv_dt, run, self._zoh, self._act, self._s0)
         if ids is None:
             self.batch.step(nstep=self._nsub)
         else:
@@ -797,7 +922,10 @@ class PlatformBatch:
         # every channel at t_{k+1} from one state
         if sample:
             self.batch.forward()
-            self._read_fts()
+            if self._any_start:
+                self._sample(False)
+            else:
+                self._read_fts()
         self.k += 1
         self._check_status()
         if measured_over(self._legs_q, self._legs_v, self._legs_f, self._half, self._vmax,
@@ -843,7 +971,7 @@ class PlatformBatch:
     @property
     def leg_lengths(self) -> np.ndarray:
         """Leg lengths the encoders read (K, 6), m (:meth:`encoder_lengths` of now)."""
-        return self.encoder_lengths(self._legs_q)
+        return self.encoder_lengths(self.meas_legs_q)
 
     def encoder_lengths(self, q: np.ndarray) -> np.ndarray:
         """What the encoders read for piston extensions ``q`` (…, K, 6) of these tests, m:
@@ -857,8 +985,8 @@ class PlatformBatch:
 
     @property
     def leg_forces(self) -> np.ndarray:
-        """Actuator forces (K, 6), N."""
-        return self._force[:, self.ids.act].copy()
+        """Measured actuator forces (K, 6), N."""
+        return self.meas_legs_f.copy()
 
     @property
     def wrench(self) -> np.ndarray:
@@ -997,7 +1125,7 @@ class PlatformSim:
     @property
     def leg_forces(self) -> tuple[float, ...]:
         """Actuator forces (N), positive pushing the plate away from the base."""
-        return tuple(self._b._legs_f[0].tolist())
+        return tuple(self._b.meas_legs_f[0].tolist())
 
     @property
     def wrench(self) -> tuple[float, ...]:

@@ -110,10 +110,10 @@ class StewartTransfer:
             RecordSignal("pose_meas", DOFS, self.plate_qpos, _noisy(
                 lambda q: plate_pose(q, self.home_height), sig("pose_meas", DOFS),
                 [s + 1 for s in seeds]), home),
-            RecordSignal("leg_len", LEGS, sim._legs_q, _noisy(
+            RecordSignal("leg_len", LEGS, sim.meas_legs_q, _noisy(
                 sim.encoder_lengths, sig("leg_len", LEGS),
                 [s + 2 for s in seeds]), np.zeros(6)),
-            RecordSignal("leg_force", LEGS, sim._legs_f, _noisy(
+            RecordSignal("leg_force", LEGS, sim.meas_legs_f, _noisy(
                 lambda f: f - rest[None], sig("leg_force", LEGS), [s + 3 for s in seeds]),
                 None),
             RecordSignal("fts", WRENCH, sim.fts_reading, _noisy(

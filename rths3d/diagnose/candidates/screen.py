@@ -4,6 +4,7 @@ accepted effects; accepting one rewrites the diagnosis' scene and replay."""
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -31,24 +32,45 @@ def _replay(diag: Any, scene: Scene) -> BenchReplay:
 
 def screen_revisions(diag: Any) -> list[tuple[str, Revision, dict[str, np.ndarray]]]:
     """(label, revision, replayed channels) of every revision the candidates propose for
-    the diagnosis' scene and measurement; a revision the scene cannot take is left out
-    with a warning."""
+    the diagnosis' scene and measurement, replayed on the diagnosis' threads (one revised
+    bench each); a revision the scene cannot take is left out with a warning."""
     if diag.descriptions == ():
         return []
-    out = []
-    effects = _effects(diag)
+    todo: list[tuple[str, Revision, Scene]] = []
     for rev in revisions(diag.scene, diag.measured, diag.dt, diag.descriptions):
-        lab = PREFIX + rev.label
         try:
-            res = _replay(diag, revised_scene(diag.scene, rev.changes)).run([effects])[0]
+            todo.append((PREFIX + rev.label, rev, revised_scene(diag.scene, rev.changes)))
         except ConfigError as exc:
             msg = f"revision {rev.label} not screened: {exc}"
             if msg not in diag.warnings:
                 diag.warnings.append(msg)
+    if not todo:
+        return []
+    effects = _effects(diag)
+
+    def one(item: tuple[str, Revision, Scene]) -> dict[str, np.ndarray] | None:
+        try:
+            return BenchReplay(item[2], diag._inp, substeps=diag._substeps,
+                               nthread=1).run([effects])[0]
+        except ConfigError as exc:
+            msg = f"revision {item[1].label} not screened: {exc}"
+            if msg not in diag.warnings:
+                diag.warnings.append(msg)
+            return None
+
+    T = max(1, min(int(getattr(diag, "threads", 1)), len(todo)))
+    if T > 1:
+        with ThreadPoolExecutor(T, thread_name_prefix="rths3d-revision") as pool:
+            res = list(pool.map(one, todo))
+    else:
+        res = [one(item) for item in todo]
+    out = []
+    for (lab, rev, _), r in zip(todo, res, strict=True):
+        if r is None:
             continue
         diag.nsim += 1
         diag._revs[lab] = rev
-        out.append((lab, rev, res))
+        out.append((lab, rev, r))
     return out
 
 

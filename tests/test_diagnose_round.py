@@ -1,0 +1,58 @@
+"""A diagnosis round batched over threads: the replays cut into one batch per thread give the
+same channels, and the same ranking, as one batch on one thread; the round reports its time
+per stage."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from rths3d.diagnose import Diagnosis, measure
+from rths3d.diagnose.report import write_report
+from rths3d.scene import load_scene
+
+CANDIDATES = ["coulomb_friction.leg1", "coulomb_friction.leg2", "delay.leg2",
+              "actuator_lag.leg3", "servo_gain.leg0", "viscous_friction.leg4",
+              "fts_gain.fz", "fts_calibration"]
+
+
+@pytest.fixture(scope="module")
+def record():
+    sc = load_scene("bench6", ["duration=1.0"])
+    return measure(sc, {"coulomb_friction.leg2": 30.0}, seed=5)
+
+
+def test_threaded_round_equals_one_batch_and_reports_its_time(record, tmp_path):
+    """Two threads (the screening's 7 replays and the refits' cut into two batches each)
+    against one thread (one batch): every replayed channel equal to the last bit, the same
+    candidates in the same order with the same fitted values; the round's stages timed."""
+    one = Diagnosis(record, candidates=CANDIDATES, nthread=1, refit=4)
+    two = Diagnosis(record, candidates=CANDIDATES, nthread=2, refit=4)
+    assert (one.threads, two.threads) == (1, 2)
+    sets = [{c: one._probe(c)} for c in CANDIDATES if c != "fts_calibration"]
+    a, b = one.outputs(sets), two.outputs(sets)
+    for x, y in zip(a, b, strict=True):
+        assert set(x) == set(y)
+        for ch in x:
+            np.testing.assert_array_equal(x[ch], y[ch], err_msg=ch)
+    n0 = two.nsim
+    ra, rb = one.run(), two.run()
+    assert [c.effect for c in ra.candidates] == [c.effect for c in rb.candidates]
+    for c1, c2 in zip(ra.candidates, rb.candidates, strict=True):
+        assert (c1.value == c2.value) or (math.isnan(c1.value) and math.isnan(c2.value))
+        assert c1.score == c2.score
+    assert rb.candidates[0].effect == "coulomb_friction.leg2"
+    t = rb.seconds
+    assert set(t) == {"screen", "refit", "rank", "round", "simulations", "threads"}
+    assert all(t[k] > 0 for k in ("screen", "refit", "rank"))
+    # the stages cover the round: their sum is the round's time within the timer's calls
+    assert t["screen"] + t["refit"] + t["rank"] == pytest.approx(t["round"], abs=1e-3)
+    # the screening's replays were cached above: the round replays only its refits (two
+    # secant steps of at most 4 candidates)
+    assert t["simulations"] == two.nsim - n0 and 1 <= t["simulations"] <= 8
+    assert t["threads"] == 2
+    assert rb.as_dict()["seconds"] == t
+    text = write_report(two, rb, tmp_path / "rep").read_text()
+    assert f"- round time: {t['round']:.1f} s" in text
