@@ -51,6 +51,30 @@ class Revision:
     std: Mapping[str, float] = field(default_factory=dict)
     detail: tuple[str, ...] = ()
 
+    def along(self, scene: Scene, alpha: float) -> Revision | None:
+        """The revision moved to ``stated + alpha·(revised − stated)`` on every key (numbers
+        or lists of numbers), or None when a key is not numeric or the scene states none."""
+        changes: dict[str, Any] = {}
+        for key, new in self.changes.items():
+            old = current(scene, key)
+            try:
+                a = np.asarray(old, dtype=float)
+                b = np.asarray(new, dtype=float)
+                if a.shape != b.shape or not (np.all(np.isfinite(a)) and
+                                              np.all(np.isfinite(b))):
+                    return None
+            except (TypeError, ValueError):
+                return None
+            v = a + alpha * (b - a)
+            changes[key] = round(float(v), 6) if v.ndim == 0 else [round(float(x), 7)
+                                                                    for x in v]
+        label = self.label
+        if len(changes) == 1 and "=" in label:
+            (key, v), = changes.items()
+            label = f"{key}=" + (f"{v:g}" if isinstance(v, float) else
+                                 "[" + ", ".join(f"{x:g}" for x in v) + "]")
+        return Revision(label, changes, self.k, dict(self.std), self.detail)
+
     def excludes_current(self, scene: Scene) -> bool:
         """Whether every numeric change is larger than 1.96 of its standard deviation."""
         for key, sd in self.std.items():
