@@ -10,16 +10,21 @@ scene parser may ask them what they accept without an import circle.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the geometry is built by rths3d.scene; config only describes
+    from .platform.geometry import StewartGeometry
 
 __all__ = [
     "COMPENSATE",
     "COMP_INIT",
+    "ControllerConfig",
     "EffectConfig",
     "ExcitationConfig",
     "ExperimentConfig",
     "Matrix",
     "NumericalConfig",
+    "PlatformDescription",
     "SafetyConfig",
     "SafetyLimits",
     "Scene",
@@ -97,6 +102,12 @@ class ExperimentConfig:
     ``multidof``: a rigid bar (mass ``m``, pitch inertia ``inertia`` kg·m²) on a heave
     spring ``k`` and a pitch spring ``k_rot`` (N·m/rad) whose end (``arm`` m from the axis)
     hits the surface: interface DOFs z and ry.
+    ``rigid``: a rigid payload of mass ``m`` with its centre of mass ``com`` (x, y, z from
+    the FTS origin, sensor frame, m; empty: 0.02 m above it on the axis) and its inertia
+    about the centre of mass, ``inertia`` (kg·m², the same about each axis) or
+    ``inertia_tensor`` (Ixx, Iyy, Izz, Ixy, Ixz, Iyz, kg·m²; the scene's ``inertia = [...]``).
+    ``mjcf``: the user's MuJoCo fragment ``file`` (bodies mounted on the FTS site, bodies
+    named ``world_*`` fixed to the world), tested through the interface DOFs ``dofs``.
     ``substeps``: physics steps per interface step for the specimen models.
     """
 
@@ -112,6 +123,62 @@ class ExperimentConfig:
     d_rot: float = 0.0
     arm: float = 0.1
     substeps: int = 4
+    com: tuple[float, ...] = ()
+    inertia_tensor: tuple[float, ...] = ()
+    file: str = ""
+    dofs: tuple[str, ...] = ()
+
+
+EXPERIMENT_EXTRA = ("com", "inertia_tensor", "file", "dofs")
+"""Fields of :class:`ExperimentConfig` written to a scene only when given (empty by default),
+so that a scene that does not use them reads and writes as before."""
+
+
+HOLD = ("ramp", "zoh")
+SAMPLE = ("end", "start")
+FEEDFORWARD = ("backward", "central", "none")
+GRAVITY = ("nominal", "none")
+
+
+@dataclass(frozen=True)
+class ControllerConfig:
+    """The leg controller's conventions (the scene's ``[controller]`` table).
+
+    ``hold``: the set-point over an interface step, ``ramp`` (first-order hold, today's
+    bench) or ``zoh`` (held from the start of the step); ``sample``: when the bench samples
+    its channels, at the ``end`` of the interface step (today's) or at its ``start``;
+    ``feedforward``: the velocity feed-forward's difference form, ``backward`` (today's),
+    ``central`` or ``none``; ``gravity``: gravity compensation from the ``nominal`` model
+    (today's) or ``none``. The servo's gains, lag and transport delay (``kp``, ``kv``,
+    ``timeconst``, ``delay`` of ``[controller]``) are kept in :class:`TransferConfig`
+    (``transfer.kp`` …), where every consumer reads them. ``given``: the keys the scene's
+    ``[controller]`` table set (``rths3d diagnose`` names them).
+    """
+
+    hold: str = "ramp"
+    sample: str = "end"
+    feedforward: str = "backward"
+    gravity: str = "nominal"
+    given: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class PlatformDescription:
+    """The Stewart platform of the bench (the scene's ``[platform]`` table), SI units.
+
+    ``geometry``: the platform's :class:`~rths3d.platform.geometry.StewartGeometry` (by
+    parameters, by explicit anchors, or the calibrated geometry of ``geometry_file``, with the
+    scene's limits and masses); ``None``: today's default platform. ``fts_pose``: the FTS
+    site's mounting pose on the plate (x, y, z m; rx, ry, rz rad, R = Rz·Ry·Rx); empty: on
+    the plate's axis, ``fts_height`` above it. ``geometry_file``: the calibrated-geometry file
+    it came from (absolute path), or "". ``given``: the keys the scene's ``[platform]`` table
+    set (``rths3d diagnose`` names them).
+    """
+
+    geometry: StewartGeometry | None = None
+    fts_pose: tuple[float, ...] = ()
+    geometry_file: str = ""
+    given: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -262,6 +329,10 @@ class Scene:
     source: str = ""
     effects: tuple[EffectConfig, ...] = ()
     """The bench's physical effects (``[[effect]]`` tables), in the order declared."""
+    platform: PlatformDescription = field(default_factory=PlatformDescription)
+    """The platform (``[platform]``): today's bench unless the scene says otherwise."""
+    controller: ControllerConfig = field(default_factory=ControllerConfig)
+    """The leg controller's conventions (``[controller]``)."""
 
     @property
     def n_steps(self) -> int:
@@ -274,9 +345,15 @@ class Scene:
         for sec in ("numerical", "experiment", "excitation", "transfer", "sensor", "safety"):
             obj = getattr(self, sec)
             for f in fields(obj):
-                out[f"{sec}.{f.name}"] = getattr(obj, f.name)
+                v = getattr(obj, f.name)
+                if sec == "experiment" and f.name in EXPERIMENT_EXTRA and not v:
+                    continue
+                out[f"{sec}.{f.name}"] = v
         for e in self.effects:
             out[f"effect.{e.label}"] = e.value
+        for f in fields(ControllerConfig):
+            if f.name != "given" and getattr(self.controller, f.name) != f.default:
+                out[f"controller.{f.name}"] = getattr(self.controller, f.name)
         return out
 
     def with_transfer(self, kind: str) -> Scene:

@@ -25,6 +25,7 @@ from .compensation import COMPENSATORS, compensator_names, config_from_dict
 from .config import (
     COMP_INIT,
     COMPENSATE,
+    EXPERIMENT_EXTRA,
     EffectConfig,
     ExcitationConfig,
     ExperimentConfig,
@@ -39,8 +40,14 @@ from .config import (
 from .errors import ConfigError
 from .experiment import part_class, part_kinds
 from .numerical.modal import coupled_fastest_eigenfrequency
-from .platform.geometry import DEFAULT_GEOMETRY
 from .record import DOFS
+from .scene_bench import (
+    controller_dict,
+    controller_table,
+    platform_dict,
+    platform_geometry,
+    platform_table,
+)
 from .transfer import transfer_class, transfer_kinds
 from .transfer.commands import compensator_params
 
@@ -214,7 +221,7 @@ def _build(cls: type, name: str, sec: Mapping[str, Any], checks: Mapping[str, di
 def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str = "") -> Scene:
     """Validate a raw (TOML-shaped) mapping and build a :class:`Scene`."""
     top = {"name", "dofs", "dt", "duration", "numerical", "experiment", "excitation",
-           "transfer", "sensor", "safety", "effect"}
+           "transfer", "sensor", "safety", "effect", "platform", "controller"}
     for key in raw:
         if key not in top:
             raise ConfigError(key, raw[key], f"unknown field (known: {', '.join(sorted(top))})")
@@ -238,6 +245,11 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
         raise ConfigError("experiment.kind", None,
                           f"required: one of {', '.join(part_kinds())}")
     _choice("experiment.kind", exp_sec["kind"], part_kinds())
+    part_cls = part_class(exp_sec["kind"])
+    if part_cls.dofs and "dofs" in exp_sec:
+        raise ConfigError("experiment.dofs", exp_sec["dofs"], f"the {exp_sec['kind']} part "
+                          f"is tested through {list(part_cls.dofs)}: set the scene's dofs")
+    extra = _experiment_extra(exp_sec, dofs if not part_cls.dofs else ())
     pos = {"lo": 0.0, "lo_open": True}
     nonneg = {"lo": 0.0}
     exp = _build(ExperimentConfig, "experiment", exp_sec, {
@@ -245,9 +257,11 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
         "h0": {**pos, "unit": "m"}, "k_contact": {**pos, "unit": "N/m"},
         "d_contact": {**nonneg, "unit": "N·s/m"}, "inertia": {**pos, "unit": "kg·m²"},
         "k_rot": {**pos, "unit": "N·m/rad"}, "d_rot": nonneg, "arm": {**pos, "unit": "m"}})
+    exp = replace(exp, **extra)
     if exp.substeps < 1 or exp.substeps > 64:
         raise ConfigError("experiment.substeps", exp.substeps, "must be in 1…64")
-    need = part_class(exp.kind).dofs
+    part_cls.validate(exp)
+    need = part_cls.interface_dofs(exp)
     if tuple(dofs) != need:
         raise ConfigError("dofs", list(dofs), f"the {exp.kind} experiment has interface DOFs "
                           f"{list(need)}")
@@ -268,6 +282,8 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
             raise ConfigError("excitation.direction", list(exc.direction),
                               f"must have {num.n} entries (one per numerical DOF)")
     tr_sec = _section(raw, "transfer", TransferConfig)
+    controller = controller_table(raw.get("controller"), tr_sec)
+    platform = platform_table(raw.get("platform"))
     comp_table = tr_sec.pop("compensator", {})
     if not isinstance(comp_table, Mapping):
         raise ConfigError("transfer.compensator", comp_table, "must be a table of the "
@@ -333,7 +349,7 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
                                         and not saf.fidelity_warmup < duration):
         raise ConfigError("safety.fidelity_warmup", saf.fidelity_warmup,
                           f"must be > 0 s and shorter than the test ({duration:g} s)")
-    _check_reach(saf, exc, exp)
+    _check_reach(saf, exc, exp, platform_geometry(platform).stroke)
     if num.integrator == "central_difference":
         _check_coupled_stability(num, exp, dofs, dt)
     sname = raw.get("name", name)
@@ -342,7 +358,38 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
     effects = _effects(raw.get("effect", []))
     return Scene(name=sname, dofs=dofs, numerical=num, experiment=exp, excitation=exc,
                  transfer=tr, sensor=sen, safety=saf, dt=dt, duration=duration, source=source,
-                 effects=effects)
+                 effects=effects, platform=platform, controller=controller)
+
+
+def _experiment_extra(sec: dict[str, Any], dofs: tuple[str, ...]) -> dict[str, Any]:
+    """Take the fields a shipped part does not use out of the raw ``[experiment]`` table
+    (edited in place): ``com`` (m), ``inertia`` as a tensor (kg·m²), ``file``, ``dofs``
+    (the scene's ``dofs`` for a part that is tested through any, when not given)."""
+    out: dict[str, Any] = {}
+    if "com" in sec:
+        v = sec.pop("com")
+        if not isinstance(v, list | tuple) or len(v) != 3:
+            raise ConfigError("experiment.com", v, "need [x, y, z] in m (sensor frame)")
+        out["com"] = tuple(_num(f"experiment.com[{i}]", x, unit="m") for i, x in enumerate(v))
+    for key in ("inertia", "inertia_tensor"):
+        if isinstance(sec.get(key), list | tuple):
+            v = sec.pop(key)
+            out["inertia_tensor"] = tuple(_num(f"experiment.inertia[{i}]", x, unit="kg·m²")
+                                          for i, x in enumerate(v))
+    if "file" in sec:
+        v = sec.pop("file")
+        if not isinstance(v, str) or not v:
+            raise ConfigError("experiment.file", v, "must be a path (string)")
+        out["file"] = v
+    v = sec.pop("dofs", list(dofs))
+    if isinstance(v, str):
+        v = [v]
+    if not isinstance(v, list | tuple) or any(not isinstance(d, str) for d in v):
+        raise ConfigError("experiment.dofs", v, f"must be a list of DOFs from {', '.join(DOFS)}")
+    if v:
+        out["dofs"] = tuple(d for d in DOFS if d in v) if all(d in DOFS for d in v) \
+            else tuple(v)
+    return out
 
 
 EFFECT_KEYS = ("name", "value", "leg", "axis")
@@ -435,9 +482,11 @@ def _check_coupled_stability(num: NumericalConfig, exp: ExperimentConfig,
                           "use 'exact'")
 
 
-def _check_reach(saf: SafetyLimits, exc: ExcitationConfig, exp: ExperimentConfig) -> None:
-    """Reject strokes the platform cannot reach and support motions beyond the stroke."""
-    reach = DEFAULT_GEOMETRY.stroke / 2.0
+def _check_reach(saf: SafetyLimits, exc: ExcitationConfig, exp: ExperimentConfig,
+                 stroke: float) -> None:
+    """Reject strokes the platform (leg ``stroke``, m) cannot reach and support motions
+    beyond the stroke."""
+    reach = stroke / 2.0
     if saf.stroke > reach:
         raise ConfigError("safety.stroke", saf.stroke, f"unreachable: the platform's leg "
                           f"stroke allows at most {reach:g} m of heave")
@@ -526,15 +575,18 @@ def load_scene(path: str | Path, overrides: Sequence[str] | Mapping[str, Any] = 
 
 
 def _relative_to(raw: dict[str, Any], folder: Path) -> dict[str, Any]:
-    """``raw`` with a relative ``excitation.file`` resolved against ``folder`` (the scene
-    file's): a scene names its data beside itself, wherever it is run from. A path given
+    """``raw`` with a relative ``excitation.file``, ``experiment.file`` (an MJCF part) and
+    ``platform.geometry_file`` resolved against ``folder`` (the scene file's): a scene names
+    its data beside itself, wherever it is run from. A path given
     by an override (``--set excitation.file=…``) is the user's, relative to the current
     folder."""
-    exc = raw.get("excitation")
-    if isinstance(exc, Mapping) and isinstance(exc.get("file"), str) and exc["file"]:
-        f = Path(exc["file"]).expanduser()
-        if not f.is_absolute():
-            raw = {**raw, "excitation": {**exc, "file": str(folder.resolve() / f)}}
+    for sec, key in (("excitation", "file"), ("experiment", "file"),
+                     ("platform", "geometry_file")):
+        tab = raw.get(sec)
+        if isinstance(tab, Mapping) and isinstance(tab.get(key), str) and tab[key]:
+            f = Path(tab[key]).expanduser()
+            if not f.is_absolute():
+                raw = {**raw, sec: {**tab, key: str(folder.resolve() / f)}}
     return raw
 
 
@@ -554,7 +606,14 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
     for sec in ("experiment", "excitation", "transfer", "sensor", "safety"):
         d = asdict(getattr(scene, sec))
         out[sec] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in d.items()
-                    if not (isinstance(v, float) and math.isnan(v))}
+                    if not (isinstance(v, float) and math.isnan(v))
+                    and not (sec == "experiment" and k in EXPERIMENT_EXTRA and not v)}
+    if "inertia_tensor" in out["experiment"]:
+        out["experiment"]["inertia"] = out["experiment"].pop("inertia_tensor")
+    for sec, tab in (("platform", platform_dict(scene.platform)),
+                     ("controller", controller_dict(scene.controller))):
+        if tab:
+            out[sec] = tab
     tr = out["transfer"]
 
     def raw(v: Any) -> Any:
@@ -623,7 +682,10 @@ def scene_to_toml(scene: Scene) -> str:
     lines = [f"# rths3d scene {scene.name!r}"]
     for key in ("name", "dofs", "dt", "duration"):
         lines.append(f"{key} = {_toml_value(d[key])}")
-    for sec in ("numerical", "excitation", "experiment", "transfer", "sensor", "safety"):
+    for sec in ("numerical", "excitation", "experiment", "transfer", "sensor", "safety",
+                "platform", "controller"):
+        if sec not in d:
+            continue
         lines += ["", f"[{sec}]"]
         lines += [f"{k} = {_toml_value(v)}" for k, v in d[sec].items()]
     for tab in d.get("effect", []):

@@ -37,20 +37,27 @@ from ..effects.base import STAGES, Effect, get_effect
 from ..effects.blocks import Block
 from ..experiment import make_part
 from ..platform.calibration import CalibratedGeometry
-from ..platform.geometry import StewartGeometry
+from ..platform.geometry import DEFAULT_GEOMETRY, StewartGeometry
 from ..platform.model import ActuatorConfig, PlatformConfig, build_spec
 
 __all__ = ["Bench", "platform_batch", "platform_config", "setpoint_structure"]
 
 
 def platform_config(scene: Scene, substeps: int | None = None) -> PlatformConfig:
-    """The controller's platform configuration of a scene (``transfer.*`` leg-servo
-    settings); ``substeps`` overrides the scene's physics substeps."""
-    t = scene.transfer
-    return PlatformConfig(actuator=ActuatorConfig(kp=t.kp, kv=t.kv, timeconst=t.timeconst,
-                                                  delay=t.delay, velocity_ff=t.velocity_ff),
-                          dt=scene.dt, substeps=t.substeps if substeps is None else substeps,
-                          integrator=t.integrator)
+    """The controller's platform configuration of a scene: the ``[platform]`` table (geometry,
+    limits, masses, FTS pose; today's platform by default), the leg servo (``transfer.*`` /
+    ``[controller]`` gains, lag, delay) and the controller's conventions (``[controller]``
+    hold, sample, feed-forward, gravity compensation); ``substeps`` overrides the scene's
+    physics substeps."""
+    t, c, p = scene.transfer, scene.controller, scene.platform
+    act = ActuatorConfig(kp=t.kp, kv=t.kv, timeconst=t.timeconst, delay=t.delay,
+                         velocity_ff=t.velocity_ff and c.feedforward != "none",
+                         gravity_comp=c.gravity == "nominal", hold=c.hold, sample=c.sample,
+                         feedforward=c.feedforward)
+    return PlatformConfig(geometry=p.geometry if p.geometry is not None else DEFAULT_GEOMETRY,
+                          actuator=act, dt=scene.dt,
+                          substeps=t.substeps if substeps is None else substeps,
+                          integrator=t.integrator, fts_pose=p.fts_pose)
 
 
 def _on(effects: Iterable[EffectConfig]) -> list[tuple[Effect, EffectConfig]]:
@@ -107,12 +114,14 @@ class Bench:
         return float(self.platform.geometry.fts_height)
 
     @cached_property
-    def fragments(self) -> tuple[str, str]:
-        """The part's MJCF (payload on the FTS, world parts)."""
+    def fragments(self) -> tuple[str, str, str]:
+        """The part's MJCF (payload on the FTS, world parts at the FTS site's home position,
+        the top-level sections they need)."""
         g = self.platform.geometry
-        site = (0.0, 0.0, g.home_height + g.fts_height)
+        pos, _ = self.platform.fts_site()
+        site = (float(pos[0]), float(pos[1]), g.home_height + float(pos[2]))
         part = make_part(self.part)
-        return part.payload_xml(), part.world_xml(site)
+        return part.payload_xml(), part.world_xml(site), part.extra_xml()
 
     @cached_property
     def payload_body(self) -> str:

@@ -23,6 +23,7 @@ from .build import build_part_model
 from .contact import ContactPart
 from .linear import LinearPart
 from .mjcf import specimen_model_xml
+from .mjcf_part import MjcfPart
 from .mujoco_specimen import MujocoSpecimen
 from .multidof import MultiDofPart
 from .rigid import RigidPart
@@ -33,6 +34,7 @@ __all__ = [
     "ContactPart",
     "ExperimentalPart",
     "LinearPart",
+    "MjcfPart",
     "MujocoSpecimen",
     "MultiDofPart",
     "RigidPart",

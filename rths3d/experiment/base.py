@@ -80,6 +80,22 @@ class ExperimentalPart:
         """World-fixed parts (e.g. a contact surface) for an FTS site at ``site_pos`` (m)."""
         return ""
 
+    def extra_xml(self) -> str:
+        """Top-level MJCF sections the part's bodies need (``<default>``, ``<asset>``,
+        ``<contact>``, ``<equality>``), appended to the model; "" for none."""
+        return ""
+
+    @classmethod
+    def interface_dofs(cls, cfg: ExperimentConfig) -> tuple[str, ...]:
+        """The interface DOFs a part of ``cfg`` is tested through (the class's
+        :attr:`dofs`, unless the configuration names them)."""
+        return cls.dofs
+
+    @classmethod
+    def validate(cls, cfg: ExperimentConfig) -> None:
+        """Raise :class:`ConfigError` (field, value, limit) for a configuration this part
+        cannot be built from; the scene parser calls it after the generic checks."""
+
     # ------------------------------------------------------------------ matrices
     def interface_matrices(self) -> tuple[list[list[float]], list[list[float]]]:
         """Interface stiffness k_EXP (N/m, N·m/rad) and mass m_EXP (kg, kg·m²) matrices of the

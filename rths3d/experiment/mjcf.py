@@ -40,6 +40,8 @@ class _Fragments(Protocol):
 
     def world_xml(self, site_pos: tuple[float, float, float]) -> str: ...
 
+    def extra_xml(self) -> str: ...
+
 
 def contact_solref(k_contact: float, d_contact: float, mass: float) -> str:
     """MuJoCo solref (negative: mass-normalised stiffness and damping) of the penalty
@@ -85,5 +87,5 @@ def specimen_model_xml(part: _Fragments, kind: str, dofs: tuple[str, ...],
         f'<body name="ft_body" pos="0 0 0"><site name="fts" pos="0 0 0" size="0.004"/>'
         f'{part.payload_xml()}</body></body></worldbody>'
         f'<sensor><force name="fts_force" site="fts"/><torque name="fts_torque" site="fts"/>'
-        f'</sensor></mujoco>'
+        f'</sensor>{part.extra_xml()}</mujoco>'
     )

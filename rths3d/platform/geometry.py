@@ -126,6 +126,22 @@ class StewartGeometry:
         return np.stack([self.top_radius * np.cos(a), self.top_radius * np.sin(a),
                          np.zeros(6)], axis=1)
 
+    def with_anchors(self, base_anchors: np.ndarray, top_anchors: np.ndarray,
+                     leg_offsets: np.ndarray | None = None) -> StewartGeometry:
+        """This platform's limits, masses and heights with explicit anchor points that
+        override the parametric ones: ``base_anchors`` ``b_i`` (6, 3) in the world frame and
+        ``top_anchors`` ``p_i`` (6, 3) in the plate frame at home (m), in leg order;
+        ``leg_offsets`` (6,) the encoder offsets (m, default 0). The result (a
+        :class:`~rths3d.platform.calibration.CalibratedGeometry`) is accepted wherever a
+        StewartGeometry is: inverse kinematics, the MuJoCo model (legs, anchor sites and the
+        meshes through ``base_angles()``/``top_angles()``), the simulators."""
+        from .calibration import CalibratedGeometry
+
+        return CalibratedGeometry.from_nominal(self, np.asarray(base_anchors, dtype=float),
+                                               np.asarray(top_anchors, dtype=float),
+                                               np.zeros(6) if leg_offsets is None
+                                               else leg_offsets)
+
     def home_position(self) -> np.ndarray:
         """World position of the plate frame at home, (3,), m."""
         return np.array([0.0, 0.0, self.home_height])

@@ -161,6 +161,12 @@ class PlatformConfig:
         0.6 N. A stiff servo (kp ≳ 1e6 N/m at 1 ms) needs substeps with RK4.
     gravity:
         Gravitational acceleration (m/s², acting along −z).
+    fts_pose:
+        Mounting pose of the FTS site on the plate, ``(x, y, z, rx, ry, rz)`` (m, rad;
+        R = Rz·Ry·Rx) in the plate frame; the part's bodies hang in this frame and the
+        sensor reports in it. Empty (the default): on the plate's axis, ``fts_height``
+        above it, parallel to the plate. The sensor housing (``fts_mass``) fills the
+        ``z`` between plate and site.
     """
 
     geometry: StewartGeometry = DEFAULT_GEOMETRY
@@ -171,6 +177,7 @@ class PlatformConfig:
     eq_solimp: tuple[float, float, float] = (0.99, 0.999, 0.0001)
     integrator: str = "RK4"
     gravity: float = 9.81
+    fts_pose: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         _check("platform.dt", self.dt, math.isfinite(self.dt) and 1e-5 <= self.dt <= 0.02,
@@ -197,9 +204,25 @@ class PlatformConfig:
                     f"{self.actuator.kv:g} N·s/m on a {self.geometry.piston_mass:g} kg piston "
                     f"(kv·h/m = {lam:.3g} must be <= 2.5): use substeps >= {need} or "
                     "integrator = 'implicitfast'"))
+        if self.fts_pose:
+            fp = tuple(float(v) for v in self.fts_pose)
+            _check("platform.fts_pose", list(self.fts_pose),
+                   len(fp) == 6 and all(math.isfinite(v) for v in fp) and 0 < fp[2] <= 1.0
+                   and max(abs(v) for v in fp[3:]) <= math.pi,
+                   "need (x, y, z, rx, ry, rz): 0 < z <= 1 m above the plate, |angles| <= pi "
+                   "rad")
+            object.__setattr__(self, "fts_pose", fp)
         short = float(self.geometry.home_leg_lengths().min())
         _check("actuator.stroke", self.stroke, self.stroke / 2 < short,
                f"half the stroke must be shorter than the home leg length {short:.4g} m")
+
+    def fts_site(self) -> tuple[np.ndarray, np.ndarray]:
+        """Position (3,) (m) and rotation matrix (3, 3) of the FTS site in the plate frame."""
+        if not self.fts_pose:
+            return np.array([0.0, 0.0, self.geometry.fts_height]), np.eye(3)
+        from .kinematics import rotation_matrix
+
+        return np.array(self.fts_pose[:3]), rotation_matrix(*self.fts_pose[3:])
 
     @property
     def timestep(self) -> float:
@@ -290,6 +313,15 @@ def _quat_z_to(u: np.ndarray) -> np.ndarray:
     return np.concatenate([[math.cos(ang / 2)], math.sin(ang / 2) * axis])
 
 
+def _quat_of(R: np.ndarray) -> np.ndarray:
+    """Unit quaternion (w, x, y, z) of a rotation matrix."""
+    import mujoco
+
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(R, dtype=float).reshape(9))
+    return q
+
+
 @lru_cache(maxsize=16)
 def _plate_meshes(geom: StewartGeometry) -> tuple[str, str]:
     """Convex visual meshes (MJCF <mesh> elements) of the base and of the top plate."""
@@ -319,8 +351,9 @@ def _plate_meshes(geom: StewartGeometry) -> tuple[str, str]:
 
 
 def model_xml(config: PlatformConfig, payload_xml: str | None = None,
-              world_xml: str | None = None) -> str:
-    """MJCF text of the platform (see the module docstring for the names)."""
+              world_xml: str | None = None, extra_xml: str | None = None) -> str:
+    """MJCF text of the platform (see the module docstring for the names); ``extra_xml``:
+    top-level sections the part needs (``<default>``, ``<asset>``, ``<contact>`` …)."""
     g = config.geometry
     a = config.actuator
     b = g.base_anchors()
@@ -370,6 +403,16 @@ def model_xml(config: PlatformConfig, payload_xml: str | None = None,
         f'gaintype="fixed" gainprm="{a.kp:.12g}" biastype="affine" '
         f'biasprm="0 {-a.kp:.12g} {-a.kv:.12g}"/>' for i in range(6))
     fts_r = 0.05
+    # the FTS site and the frame of the part: on the plate's axis (today's bench) or at the
+    # scene's fts_pose (the sensor housing then spans the plate-to-site height at its x, y)
+    fts_h = g.fts_height
+    fts_at = f'pos="0 0 {g.fts_height:.12g}"'
+    fts_geom_xy = "0 0"
+    if config.fts_pose:
+        pos, R = config.fts_site()
+        fts_h = float(pos[2])
+        fts_geom_xy = _fmt(pos[:2])
+        fts_at = f'pos="{_fmt(pos)}" quat="{_fmt(_quat_of(R))}"'
     # the leg forces and the sensor's orientation as sensors too: evaluated only at the start
     # of a step (RK4's later stages overwrite actuator_force and site_xmat), so a replay can
     # read a step's end-of-step sample at the start of the next (rths3d.platform.sim)
@@ -400,11 +443,11 @@ def model_xml(config: PlatformConfig, payload_xml: str | None = None,
       <geom name="plate" class="platform" type="mesh" mesh="plate_mesh" mass="{g.plate_mass:.12g}"
             rgba="0.55 0.6 0.68 1"/>
 {anchors}
-      <geom name="fts" class="platform" type="cylinder" size="{fts_r} {g.fts_height / 2:.12g}"
-            pos="0 0 {g.fts_height / 2:.12g}" mass="{g.fts_mass:.12g}" rgba="0.85 0.55 0.1 1"/>
+      <geom name="fts" class="platform" type="cylinder" size="{fts_r} {fts_h / 2:.12g}"
+            pos="{fts_geom_xy} {fts_h / 2:.12g}" mass="{g.fts_mass:.12g}" rgba="0.85 0.55 0.1 1"/>
       <body name="fts_body">
-        <site name="fts" pos="0 0 {g.fts_height:.12g}" size="0.01"/>
-        <frame pos="0 0 {g.fts_height:.12g}">
+        <site name="fts" {fts_at} size="0.01"/>
+        <frame {fts_at}>
 {payload_xml or ""}
         </frame>
       </body>
@@ -422,7 +465,7 @@ def model_xml(config: PlatformConfig, payload_xml: str | None = None,
     <torque name="fts_torque" site="fts"/>
 {legsens}
     <framequat name="fts_quat" objtype="site" objname="fts"/>
-  </sensor>
+  </sensor>{extra_xml or ""}
 </mujoco>
 """
 
@@ -432,17 +475,19 @@ def _one_line(exc: Exception) -> str:
 
 
 def build_spec(config: PlatformConfig | None = None, payload_xml: str | None = None,
-               world_xml: str | None = None):  # -> mujoco.MjSpec
+               world_xml: str | None = None,
+               extra_xml: str | None = None):  # -> mujoco.MjSpec
     """The platform as an editable ``mujoco.MjSpec`` (payload under ``fts_body``).
 
     ``payload_xml``: MJCF ``<body>`` element(s), the experimental part, in the ``fts`` site
     frame (z up at home). ``world_xml``: extra MJCF elements for the worldbody (e.g. a
-    contact surface). Raises :class:`ConfigError` naming the fragment if MuJoCo rejects it.
+    contact surface). ``extra_xml``: top-level sections the fragments need. Raises
+    :class:`ConfigError` naming the fragment if MuJoCo rejects it.
     """
     import mujoco
 
     config = config or PlatformConfig()
-    xml = model_xml(config, payload_xml, world_xml)
+    xml = model_xml(config, payload_xml, world_xml, extra_xml)
     try:
         return mujoco.MjSpec.from_string(xml)
     except ValueError as exc:
@@ -452,9 +497,10 @@ def build_spec(config: PlatformConfig | None = None, payload_xml: str | None = N
 
 
 def build_model(config: PlatformConfig | None = None, payload_xml: str | None = None,
-                world_xml: str | None = None):  # -> mujoco.MjModel
+                world_xml: str | None = None,
+                extra_xml: str | None = None):  # -> mujoco.MjModel
     """Compiled ``mujoco.MjModel`` of the platform (see :func:`build_spec`)."""
-    spec = build_spec(config, payload_xml, world_xml)
+    spec = build_spec(config, payload_xml, world_xml, extra_xml)
     try:
         return spec.compile()
     except ValueError as exc:

@@ -1,0 +1,219 @@
+"""The bench tables of a scene: ``[platform]`` (the Stewart platform) and ``[controller]``
+(the leg controller's conventions, gains, lag and delay).
+
+Both are optional and default to today's bench, so a scene that says nothing new reads,
+runs and writes as before. :func:`platform_table` and :func:`controller_table` validate the
+raw tables (every mistake a :class:`~rths3d.errors.ConfigError` naming the field, the value
+and the limit); :func:`platform_dict` and :func:`controller_dict` write them back
+(:func:`rths3d.scene.scene_to_dict`). Docs: docs/scenes.md, docs/bench.md.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .config import FEEDFORWARD, GRAVITY, HOLD, SAMPLE, ControllerConfig, PlatformDescription
+from .errors import ConfigError
+from .platform.geometry import DEFAULT_GEOMETRY, StewartGeometry
+
+__all__ = ["CONTROLLER_KEYS", "PLATFORM_KEYS", "controller_dict", "controller_table",
+           "platform_dict", "platform_geometry", "platform_table"]
+
+PATTERN = ("base_radius", "top_radius", "base_gap", "top_gap", "base_angle")
+"""Geometry parameters of the parametric anchor pattern."""
+SCALARS = tuple(f.name for f in dataclasses.fields(StewartGeometry))
+"""Every StewartGeometry field (m, rad, kg, N, m/s)."""
+PLATFORM_KEYS = (*SCALARS, "base_anchors", "top_anchors", "geometry_file", "fts_pose")
+CONTROLLER_KEYS = ("kp", "kv", "timeconst", "delay", "hold", "sample", "feedforward",
+                   "gravity")
+_SHARED = ("kp", "kv", "timeconst", "delay")
+"""[controller] keys that today's [transfer] table also has."""
+
+
+def _number(field: str, v: Any, unit: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+        raise ConfigError(field, v, f"must be a finite number in {unit}")
+    return float(v)
+
+
+def _anchors(field: str, v: Any) -> np.ndarray:
+    try:
+        a = np.array(v, dtype=float)
+    except (TypeError, ValueError):
+        a = np.zeros(0)
+    if a.shape != (6, 3) or not np.all(np.isfinite(a)):
+        raise ConfigError(field, v, "need six [x, y, z] anchor points in m, leg order")
+    if np.max(np.abs(a)) > 10.0:
+        raise ConfigError(field, v, "anchor coordinates must be within 10 m")
+    return a
+
+
+def _renamed(exc: ConfigError) -> ConfigError:
+    """A geometry error named as the scene's field (``platform.<key>``)."""
+    f = exc.field.replace("geometry.", "platform.").replace("actuator.", "platform.")
+    f = f.replace("base_anchor_xyz", "base_anchors").replace("top_anchor_xyz", "top_anchors")
+    return ConfigError(f, exc.value, exc.limit)
+
+
+def platform_table(sec: Any) -> PlatformDescription:
+    """Validate the raw ``[platform]`` table (paths already resolved by the loader)."""
+    if sec is None:
+        return PlatformDescription()
+    if not isinstance(sec, Mapping):
+        raise ConfigError("platform", sec, "must be a table")
+    for key in sec:
+        if key not in PLATFORM_KEYS:
+            raise ConfigError(f"platform.{key}", sec[key],
+                              f"unknown field (known: {', '.join(PLATFORM_KEYS)})")
+    if not sec:
+        return PlatformDescription()
+    kw = {k: _number(f"platform.{k}", sec[k], "SI units") for k in SCALARS if k in sec}
+    fts_pose: tuple[float, ...] = ()
+    if "fts_pose" in sec:
+        v = sec["fts_pose"]
+        if not isinstance(v, list | tuple) or len(v) != 6:
+            raise ConfigError("platform.fts_pose", v, "need [x, y, z, rx, ry, rz] (m, rad)")
+        fts_pose = tuple(_number(f"platform.fts_pose[{i}]", x, "m or rad")
+                         for i, x in enumerate(v))
+        if not 0 < fts_pose[2] <= 1.0:
+            raise ConfigError("platform.fts_pose[2]", fts_pose[2], "the sensor's height above "
+                              "the plate must be in (0, 1] m")
+        if max(abs(a) for a in fts_pose[3:]) > math.pi:
+            raise ConfigError("platform.fts_pose", list(v), "angles must be within ±pi rad")
+        if "fts_height" in kw and kw["fts_height"] != fts_pose[2]:
+            raise ConfigError("platform.fts_height", kw["fts_height"], f"differs from "
+                              f"fts_pose z = {fts_pose[2]:g} m (give one of them)")
+        kw["fts_height"] = fts_pose[2]
+    explicit = "base_anchors" in sec or "top_anchors" in sec
+    gfile = sec.get("geometry_file", "")
+    if not isinstance(gfile, str):
+        raise ConfigError("platform.geometry_file", gfile, "must be a path (string)")
+    if explicit and not ("base_anchors" in sec and "top_anchors" in sec):
+        missing = "top_anchors" if "base_anchors" in sec else "base_anchors"
+        raise ConfigError(f"platform.{missing}", None, "required with explicit anchors "
+                          "(six base and six top anchors)")
+    if gfile and (explicit or any(k in sec for k in (*PATTERN, "home_height"))):
+        clash = next(k for k in ("base_anchors", "top_anchors", *PATTERN, "home_height")
+                     if k in sec)
+        raise ConfigError(f"platform.{clash}", sec[clash], "give the geometry one way: the "
+                          "calibrated geometry_file already sets the anchors and home height")
+    if explicit and any(k in sec for k in ("base_gap", "top_gap", "base_angle")):
+        clash = next(k for k in ("base_gap", "top_gap", "base_angle") if k in sec)
+        raise ConfigError(f"platform.{clash}", sec[clash], "give the geometry one way: "
+                          "explicit anchors or the parametric pattern")
+    try:
+        if gfile:
+            from .platform.calibration import load_geometry
+
+            if not Path(gfile).is_file():
+                raise ConfigError("platform.geometry_file", gfile, "file not found")
+            try:
+                geom: StewartGeometry = load_geometry(gfile)
+            except ConfigError as exc:
+                raise ConfigError("platform.geometry_file", gfile, str(exc)) from None
+            if kw:
+                geom = dataclasses.replace(geom, **kw)
+        elif explicit:
+            b = _anchors("platform.base_anchors", sec["base_anchors"])
+            p = _anchors("platform.top_anchors", sec["top_anchors"])
+            # the drawing's radii (plate and base meshes, viewer) from the anchors
+            kw.setdefault("base_radius", float(np.mean(np.hypot(b[:, 0], b[:, 1]))))
+            kw.setdefault("top_radius", float(np.mean(np.hypot(p[:, 0], p[:, 1]))))
+            geom = StewartGeometry(**kw).with_anchors(b, p)
+        else:
+            geom = StewartGeometry(**kw)
+    except ConfigError as exc:
+        if exc.field.startswith("platform."):
+            raise
+        raise _renamed(exc) from None
+    return PlatformDescription(geometry=geom, fts_pose=fts_pose,
+                               geometry_file=gfile, given=tuple(k for k in PLATFORM_KEYS
+                                                                 if k in sec))
+
+
+def platform_geometry(desc: PlatformDescription) -> StewartGeometry:
+    """The platform's geometry (today's default when the scene gives none)."""
+    return desc.geometry if desc.geometry is not None else DEFAULT_GEOMETRY
+
+
+def controller_table(sec: Any, transfer: dict[str, Any]) -> ControllerConfig:
+    """Validate the raw ``[controller]`` table and move its gains, lag and delay into the
+    raw ``[transfer]`` table ``transfer`` (edited in place), where every consumer reads them.
+
+    ``[controller]`` wins over today's ``[transfer]`` keys; the same key set in both to
+    different values is an error, and so is ``transfer.velocity_ff = false`` with a
+    feed-forward form other than ``none``."""
+    if sec is None:
+        sec = {}
+    if not isinstance(sec, Mapping):
+        raise ConfigError("controller", sec, "must be a table")
+    for key in sec:
+        if key not in CONTROLLER_KEYS:
+            raise ConfigError(f"controller.{key}", sec[key],
+                              f"unknown field (known: {', '.join(CONTROLLER_KEYS)})")
+    for key in _SHARED:
+        if key not in sec:
+            continue
+        v = sec[key]
+        if isinstance(v, bool) or not isinstance(v, int | float):
+            raise ConfigError(f"controller.{key}", v, "must be a number (SI units)")
+        if key in transfer and transfer[key] != v:
+            raise ConfigError(f"controller.{key}", v, f"differs from transfer.{key} = "
+                              f"{transfer[key]!r} (set it in one table)")
+        transfer[key] = v
+    kw: dict[str, str] = {}
+    for key, allowed in (("hold", HOLD), ("sample", SAMPLE), ("feedforward", FEEDFORWARD),
+                         ("gravity", GRAVITY)):
+        if key in sec:
+            v = sec[key]
+            if v not in allowed:
+                raise ConfigError(f"controller.{key}", v, "must be one of "
+                                  + " | ".join(allowed))
+            kw[key] = v
+    vff = transfer.get("velocity_ff", True)
+    if vff is False:
+        if kw.get("feedforward", "none") != "none":
+            raise ConfigError("controller.feedforward", kw["feedforward"], "differs from "
+                              "transfer.velocity_ff = false (no feed-forward; set it in one "
+                              "table)")
+        kw["feedforward"] = "none"
+    elif kw.get("feedforward") == "none":
+        transfer["velocity_ff"] = False
+    return ControllerConfig(**kw, given=tuple(k for k in CONTROLLER_KEYS if k in sec))
+
+
+def platform_dict(desc: PlatformDescription) -> dict[str, Any]:
+    """The ``[platform]`` table of a description: the keys it was given ({} for none)."""
+    g = desc.geometry
+    if g is None or not desc.given:
+        return {}
+    out: dict[str, Any] = {}
+    for key in desc.given:
+        if key == "geometry_file":
+            out[key] = desc.geometry_file
+        elif key == "fts_pose":
+            out[key] = list(desc.fts_pose)
+        elif key == "base_anchors":
+            out[key] = g.base_anchors().tolist()
+        elif key == "top_anchors":
+            out[key] = g.top_anchors().tolist()
+        else:
+            out[key] = getattr(g, key)
+    return out
+
+
+def controller_dict(ctl: ControllerConfig) -> dict[str, Any]:
+    """The ``[controller]`` conventions that differ from today's bench ({} for none); the
+    gains, lag and delay are written in ``[transfer]``."""
+    out: dict[str, Any] = {}
+    for f in dataclasses.fields(ControllerConfig):
+        v = getattr(ctl, f.name)
+        if f.name != "given" and v != f.default:
+            out[f.name] = v
+    return out
