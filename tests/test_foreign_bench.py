@@ -103,14 +103,17 @@ def contact_bench() -> Spec:
             'pos="0 0 0.01" mass="0" contype="4" conaffinity="4" condim="1" '
             'solref="0.004 1"/></body></body>')
     # the surface's lower face 1 mm above the tip's top at static equilibrium (the spring's
-    # static sag m g / k = 0.45 mm included)
-    z_tip = h_site + 0.02 + 0.04 + 0.01 + 0.005 - 0.4 * 9.81 / 8650
-    world = (f'<body name="world_surface" pos="0 0 {z_tip + 0.001 + 0.005}"><geom '
-             'name="surface" type="box" size="0.05 0.05 0.005" contype="4" conaffinity="4" '
-             'condim="1" solref="0.004 1"/></body>')
+    # static sag m g / k = 0.45 mm included), in the sensor frame at home
+    z = 0.02 + 0.04 + 0.01 + 0.005 - 0.4 * 9.81 / 8650 + 0.001 + 0.005
+
+    def surface(zc: float) -> str:
+        return (f'<body name="world_surface" pos="0 0 {zc}"><geom name="surface" type="box" '
+                'size="0.05 0.05 0.005" contype="4" conaffinity="4" condim="1" '
+                'solref="0.004 1"/></body>')
+
     return Spec("contact", s.base, s.top, s.home_height, s.masses, s.fts_height,
                 {"kind": "mjcf", "file": "block_with_specimen.xml",
-                 "dofs": list(DOFS)}, part, world,
+                 "dofs": list(DOFS)}, part, surface(h_site + z), files={"world": surface(z)},
                 poses={"trans": 1.2e-3, "rot": 0.006})
 
 
@@ -152,6 +155,7 @@ def description(spec: Spec) -> dict:
                       "K": np.diag([2.0e4] * 3 + [600.0] * 3).tolist()},
         "platform": {"base_anchors": spec.base.tolist(), "top_anchors": spec.top.tolist(),
                      "home_height": spec.home_height, **spec.masses,
+                     "fts_height": spec.fts_height,
                      "fts_pose": [0.0, 0.0, spec.fts_height, 0.0, 0.0, 0.0]},
         "controller": {**spec.servo, "timeconst": 0.0, "delay": 0.001, "hold": "zoh",
                        "sample": "start", "feedforward": "backward", "gravity": "nominal"},
@@ -169,7 +173,8 @@ def write_scene(folder: Path, spec: Spec, desc: dict) -> Path:
         lines += ["", f"[{sec}]"] + [f"{k} = {_toml(v)}" for k, v in desc[sec].items()]
     if spec.part.get("kind") == "mjcf":
         (folder / spec.part["file"]).write_text(
-            f"<mujoco><worldbody>{spec.part_xml}{spec.world_xml}</worldbody></mujoco>")
+            f"<mujoco><worldbody>{spec.part_xml}{spec.files.get('world', '')}"
+            "</worldbody></mujoco>")
     path = folder / f"{desc['name']}.toml"
     path.write_text("\n".join(lines) + "\n")
     return path
