@@ -13,8 +13,9 @@ the scene. Prints, and writes to ``results.json`` in the output folder:
 - matrix: per-leg, geometry, FTS and payload effects hidden in bench A: right effect first,
   right leg, validation ≤ 1.2 after adding it.
 
-Run: ``python examples/66_foreign_bench.py [--quick] [--out DIR]`` (the full set takes about
-20 minutes on two cores; ``--quick`` runs one case of each kind).
+Run: ``python examples/66_foreign_bench.py [--quick] [--kinds null,wrong,matrix]
+[--shard I/N] [--out DIR]`` (the full set takes about an hour on two shared cores; ``--quick``
+runs one case of each kind; ``--shard 0/2`` runs every second case, for two processes).
 """
 
 from __future__ import annotations
@@ -32,9 +33,21 @@ TESTS = Path(__file__).resolve().parents[1] / "tests"
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="one case of each kind")
+    ap.add_argument("--kinds", default="null,wrong,matrix",
+                    help="which sets to run (comma-separated: null, wrong, matrix)")
+    ap.add_argument("--shard", default="0/1", help="I/N: run every N-th case from the I-th")
     ap.add_argument("--out", type=Path, default=Path("foreign_bench_results"),
                     help="output folder (results.json)")
     args = ap.parse_args()
+    kinds = {k.strip() for k in args.kinds.split(",") if k.strip()}
+    bad = kinds - {"null", "wrong", "matrix"}
+    try:
+        i0, n = (int(v) for v in args.shard.split("/"))
+        assert 0 <= i0 < n
+    except (ValueError, AssertionError):
+        sys.exit(f"error: --shard: {args.shard!r} must be I/N with 0 <= I < N")
+    if bad:
+        sys.exit(f"error: --kinds: {sorted(bad)} not among null, wrong, matrix")
     if not (TESTS / "foreign_bench.py").is_file():
         sys.exit("error: tests/foreign_bench.py not found: run from a clone of the repository")
     sys.path.insert(0, str(TESTS))
@@ -43,6 +56,13 @@ def main() -> None:
     nulls = ["rigid"] if args.quick else list(fb.BENCHES)
     wrong = fb.WRONG[:1] if args.quick else fb.WRONG
     matrix = list(fb.MATRIX)[:1] if args.quick else list(fb.MATRIX)
+    cases = [("null", c) for c in nulls if "null" in kinds] + \
+        [("wrong", c) for c in wrong if "wrong" in kinds] + \
+        [("matrix", c) for c in matrix if "matrix" in kinds]
+    cases = cases[i0::n]
+    nulls = [c for k, c in cases if k == "null"]
+    wrong = [c for k, c in cases if k == "wrong"]
+    matrix = [c for k, c in cases if k == "matrix"]
     out: dict = {"null": [], "wrong": [], "matrix": []}
     t0 = time.time()
     with tempfile.TemporaryDirectory() as tmp:
@@ -85,7 +105,7 @@ def main() -> None:
     }
     out["figures"] = fig
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "results.json").write_text(json.dumps(out, indent=1, default=str))
+    (args.out / f"results_{i0}of{n}.json").write_text(json.dumps(out, indent=1, default=str))
     print(json.dumps(fig))
 
 

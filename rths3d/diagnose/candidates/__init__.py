@@ -110,16 +110,29 @@ def register_description(cls: type) -> type:
 
 
 def current(scene: Scene, key: str) -> Any:
-    """The value of a dotted key in the scene as written (``None`` when the scene does not
-    state it)."""
+    """The value of a dotted key for the scene: as the scene writes it, else the value its
+    configuration holds by default (``controller.hold`` → ``"ramp"``; a rigid part's
+    unstated centre of mass → its default place on the axis); ``None`` when neither."""
     from ...scene import scene_to_dict
 
     node: Any = scene_to_dict(scene)
     for part in key.split("."):
         if not isinstance(node, Mapping) or part not in node:
-            return None
+            node = None
+            break
         node = node[part]
-    return node
+    if node is not None:
+        return node
+    sec, _, leaf = key.partition(".")
+    if key == "experiment.com" and scene.experiment.kind == "rigid" and \
+            not scene.experiment.com:
+        from ...experiment.mjcf import MASS_HEIGHT
+
+        return [0.0, 0.0, MASS_HEIGHT]
+    v = getattr(getattr(scene, sec, None), leaf, None)
+    if isinstance(v, tuple):
+        return list(v) if v else None
+    return v
 
 
 def revised_scene(scene: Scene, changes: Mapping[str, Any]) -> Scene:

@@ -63,8 +63,12 @@ class PayloadParameters:
                                 {"experiment.com": com}, 3, {"experiment.com": sd_c}, detail))
             full = {"experiment.m": m, "experiment.com": com}
             k = 4
-            if not any(n.startswith("I") for n in est.unseen_):
-                Ic = est.inertia_
+            Ic = est.inertia_
+            lam = np.linalg.eigvalsh(0.5 * (Ic + Ic.T))
+            # a physical tensor only (positive moments, the triangle inequality): a bench
+            # whose controller holds its set-point biases the inertia (docs/diagnosis.md)
+            physical = bool(lam[0] > 0 and lam[0] + lam[1] >= lam[2])
+            if physical and not any(n.startswith("I") for n in est.unseen_):
                 full["experiment.inertia"] = [round(float(v), 7) for v in (
                     Ic[0, 0], Ic[1, 1], Ic[2, 2], Ic[0, 1], Ic[0, 2], Ic[1, 2])]
                 k = 10
