@@ -91,3 +91,41 @@ def test_revisions_that_change_nothing_are_left_out():
         assert revisions(scene, {}, 1e-3, names=("same",)) == []
     finally:
         del DESCRIPTIONS["same"]
+
+
+def test_accepting_a_revision_rewrites_the_scene_and_saves_it(tmp_path):
+    """A record of a bench whose controller holds its set-point, compared with a scene that
+    says ramp: ``add("scene:controller.hold=zoh")`` rewrites the scene, the waterfall's
+    validation error falls to ≤ 1.2 noise units, ``revisions`` names the key with the value
+    stated and the value revised, and the saved scene reads back with ``hold = "zoh"``."""
+    import dataclasses
+
+    from foreign_bench import write_record
+
+    from rths3d.bench import Bench
+    from rths3d.diagnose import Diagnosis
+    from rths3d.record import Record
+    from rths3d.scene import scene_to_toml
+
+    scene = dataclasses.replace(load_scene("bench6"), duration=1.5)
+    g = Bench.from_scene(scene).platform.geometry
+    fb = ForeignBench(base=g.base_anchors(), top=g.top_anchors(), home_height=g.home_height,
+                      part_xml='<body pos="0 0 0.02"><inertial pos="0 0 0" mass="1.5" '
+                               'diaginertia="0.002 0.002 0.002"/></body>',
+                      hold="zoh", sample="end")
+    from foreign_bench import plate_inertial
+
+    fb = fb.with_(**plate_inertial(Bench.from_scene(scene).nominal_model()))
+    ch = fb.run(multisine(1.5, 1e-3, seed=6), seed=5)
+    rec = Record.load(write_record(tmp_path / "zoh.csv", ch, 1e-3))
+    diag = Diagnosis(rec, scene, candidates=[], descriptions=("controller",))
+    before = diag.waterfall[-1]["error_val"]
+    diag.add("scene:controller.hold=zoh")
+    assert diag.scene.controller.hold == "zoh"
+    assert diag.revisions == [{"label": "controller.hold=zoh", "changes": {
+        "controller.hold": {"stated": "ramp", "revised": "zoh"}}}]
+    assert diag.waterfall[-1]["step"] == "~ controller.hold=zoh"
+    assert before > 3.0 and diag.waterfall[-1]["error_val"] <= 1.2
+    path = tmp_path / "calibrated.toml"
+    path.write_text(scene_to_toml(diag.calibrated_scene()))
+    assert load_scene(path).controller.hold == "zoh"
