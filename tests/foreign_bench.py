@@ -33,6 +33,9 @@ WRENCH = ("fx", "fy", "fz", "tx", "ty", "tz")
 NOISE = {"pose": (1e-6, 5e-6), "leg_len": 1e-6, "leg_force": 0.5, "force": 0.1,
          "torque": 0.005}
 """Noise σ per channel at level 1 (docs/records.md): m, rad, m, N, N, N·m."""
+LAST_RUN: dict[str, float] = {}
+"""Facts of the last run: ``contact_fraction``, the share of interface steps that end with a
+contact active."""
 
 
 def anchor_pairs(radius: float, angle0: float, gap: float, shift: float) -> np.ndarray:
@@ -245,6 +248,7 @@ class ForeignBench:
         Lprev = ctrl_home.copy()
         ffg = self.kv / self.kp / self.dt if self.velocity_ff else 0.0
         ends: list[int] = []
+        contacts = 0
         for k in range(N - 1):
             if self.sample == "start":
                 sample(k + 1)  # the state at t_k, before the new set-point acts
@@ -269,11 +273,13 @@ class ForeignBench:
                     mujoco.mj_step(model, data)
                 data.ctrl[:6] = cd
             mujoco.mj_forward(model, data)
+            contacts += data.ncon > 0
             if self.sample == "end":
                 sample(k + 1)
             ends.append(k)
             if not np.all(np.isfinite(data.qpos)) or np.max(np.abs(data.qvel[slide_v])) > 5:
                 raise RuntimeError(f"foreign bench diverged at step {k}")
+        LAST_RUN["contact_fraction"] = contacts / max(N - 1, 1)
         rng = np.random.default_rng(seed)
         sp, sr = NOISE["pose"]
         out: dict[str, np.ndarray] = {}

@@ -28,6 +28,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from foreign_bench import (  # noqa: E402
     DOFS,
+    LAST_RUN,
     NOISE,
     WRENCH,
     ForeignBench,
@@ -92,19 +93,20 @@ def rigid_bench() -> Spec:
 
 def contact_bench() -> Spec:
     """Bench B (geometry of A): a 2 kg block carrying a 0.4 kg specimen on a spring
-    (8650 N/m) whose tip meets a world-fixed surface 1 mm above it."""
+    (8650 N/m, lightly damped) whose tip meets a world-fixed surface 1 mm above it. The
+    fragment is written at its static equilibrium (the spring's ``springref`` holds the
+    specimen's weight), as a user writes a part that starts at rest."""
     s = rigid_bench()
     h_site = s.home_height + s.fts_height
     part = ('<body name="block" pos="0 0 0.02"><inertial pos="0 0 0" mass="2.0" '
             'diaginertia="0.004 0.004 0.006"/>'
             '<body name="specimen" pos="0 0 0.04"><joint name="spring" type="slide" '
-            'axis="0 0 1" stiffness="8650" damping="2"/><inertial pos="0 0 0" mass="0.4" '
-            'diaginertia="1e-4 1e-4 1e-4"/><geom name="tip" type="sphere" size="0.005" '
-            'pos="0 0 0.01" mass="0" contype="4" conaffinity="4" condim="1" '
-            'solref="0.004 1"/></body></body>')
-    # the surface's lower face 1 mm above the tip's top at static equilibrium (the spring's
-    # static sag m g / k = 0.45 mm included), in the sensor frame at home
-    z = 0.02 + 0.04 + 0.01 + 0.005 - 0.4 * 9.81 / 8650 + 0.001 + 0.005
+            f'axis="0 0 1" stiffness="8650" springref="{0.4 * 9.81 / 8650!r}" damping="2"/>'
+            '<inertial pos="0 0 0" mass="0.4" diaginertia="1e-4 1e-4 1e-4"/>'
+            '<geom name="tip" type="sphere" size="0.005" pos="0 0 0.01" mass="0" '
+            'contype="4" conaffinity="4" condim="1" solref="0.004 1"/></body></body>')
+    # the surface's lower face 1 mm above the tip's top, in the sensor frame at home
+    z = 0.02 + 0.04 + 0.01 + 0.005 + 0.001 + 0.005
 
     def surface(zc: float) -> str:
         return (f'<body name="world_surface" pos="0 0 {zc}"><geom name="surface" type="box" '
@@ -114,7 +116,7 @@ def contact_bench() -> Spec:
     return Spec("contact", s.base, s.top, s.home_height, s.masses, s.fts_height,
                 {"kind": "mjcf", "file": "block_with_specimen.xml",
                  "dofs": list(DOFS)}, part, surface(h_site + z), files={"world": surface(z)},
-                poses={"trans": 1.2e-3, "rot": 0.006})
+                poses={"trans": 2.5e-3, "rot": 0.006})
 
 
 def other_geometry_bench() -> Spec:
@@ -303,6 +305,8 @@ def test_null_described_right_is_only_noise(tmp_path, name):
     noise — nothing proposed, validation error ≤ 1.2 units of the noise the bench added."""
     spec = BENCHES[name]()
     rec = make_record(tmp_path, spec, seed=11)
+    if name == "contact":  # the specimen meets its surface during the test
+        assert LAST_RUN["contact_fraction"] > 0.02
     diag, res = _diagnose(tmp_path, spec, description(spec), rec, rounds=1)
     assert res[0].proposal is None, res[0].proposal
     assert validation_error(diag) <= 1.2
