@@ -30,7 +30,7 @@ def test_controller_candidate_offers_every_other_choice():
     assert got == sorted([("controller.hold", "zoh"), ("controller.sample", "start"),
                           ("controller.feedforward", "central"),
                           ("controller.feedforward", "none"), ("controller.gravity", "none")])
-    assert all(r.k == 1 for r in revs)
+    assert all(r.k == 0 for r in revs)  # a discrete choice fits no parameter
     assert all(is_revision(PREFIX + r.label) and not is_revision(r.label) for r in revs)
 
 

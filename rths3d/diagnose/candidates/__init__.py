@@ -40,14 +40,14 @@ class Revision:
     """One alternative description of the bench.
 
     ``changes``: dotted scene keys → new values (SI units, as the scene writes them);
-    ``k``: the number of parameters it fits (a discrete choice counts 1); ``std``: standard
+    ``k``: the number of parameters it fits (0 for a discrete choice); ``std``: standard
     deviations of numeric changes where the candidate estimated them (the revision counts as
     significant only if each change exceeds 1.96 of them); ``detail``: report lines (e.g. the
     payload identification's condition number and what it cannot see)."""
 
     label: str
     changes: Mapping[str, Any]
-    k: int = 1
+    k: int = 0
     std: Mapping[str, float] = field(default_factory=dict)
     detail: tuple[str, ...] = ()
 

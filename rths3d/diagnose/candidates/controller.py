@@ -1,7 +1,13 @@
 """The controller's conventions as description candidates: every other choice of the set-point
 hold (``ramp`` | ``zoh``), the sampling instant (``end`` | ``start``), the feed-forward's
 difference form (``backward`` | ``central`` | ``none``) and the gravity compensation
-(``nominal`` | ``none``), each one revision (a discrete choice: k = 1)."""
+(``nominal`` | ``none``), each one revision.
+
+A choice among a few discrete alternatives fits no parameter: k = 0 in the held-out ΔIC.
+Where a convention and a fitted effect explain a record equally — a bench that samples at
+the start of the step is indistinguishable from one that samples at the end with one more
+sample of transport delay — the convention ranks first (the stated description is what is
+wrong, no effect is added) and the pair is reported as confounded."""
 
 from __future__ import annotations
 
@@ -38,5 +44,5 @@ class ControllerConventions:
             now = current(scene, f"controller.{key}") or DEFAULTS[key]
             for c in choices:
                 if c != now:
-                    out.append(Revision(f"controller.{key}={c}", {f"controller.{key}": c}))
+                    out.append(Revision(f"controller.{key}={c}", {f"controller.{key}": c}, 0))
         return out
