@@ -93,7 +93,7 @@ def rigid_bench() -> Spec:
 
 def contact_bench() -> Spec:
     """Bench B (geometry of A): a 2 kg block carrying a 0.4 kg specimen on a spring
-    (8650 N/m, lightly damped) whose tip meets a world-fixed surface 1 mm above it. The
+    (8650 N/m, 10 N·s/m) whose tip meets a world-fixed surface 1 mm above it. The
     fragment is written at its static equilibrium (the spring's ``springref`` holds the
     specimen's weight), as a user writes a part that starts at rest."""
     s = rigid_bench()
@@ -101,7 +101,7 @@ def contact_bench() -> Spec:
     part = ('<body name="block" pos="0 0 0.02"><inertial pos="0 0 0" mass="2.0" '
             'diaginertia="0.004 0.004 0.006"/>'
             '<body name="specimen" pos="0 0 0.04"><joint name="spring" type="slide" '
-            f'axis="0 0 1" stiffness="8650" springref="{0.4 * 9.81 / 8650!r}" damping="2"/>'
+            f'axis="0 0 1" stiffness="8650" springref="{0.4 * 9.81 / 8650!r}" damping="10"/>'
             '<inertial pos="0 0 0" mass="0.4" diaginertia="1e-4 1e-4 1e-4"/>'
             '<geom name="tip" type="sphere" size="0.005" pos="0 0 0.01" mass="0" '
             'contype="4" conaffinity="4" condim="1" solref="0.004 1"/></body></body>')
