@@ -4,16 +4,24 @@ Prints ONE JSON line:
 
 * ``us_per_ms_bare``: µs of wall time per simulated 1 ms for bare ``mujoco.mj_step`` on the
   same model, replaying the controls the loop produced (control write included);
-* ``us_per_ms_loop``: the same for the full loop — ``PlatformSim.step`` (scalar IK, gravity
-  compensation, velocity feed-forward, safety checks, ``mj_step``) plus reading the achieved
-  ``pose`` and the ``interface_wrench`` every step;
-* ``loop_over_bare``: their ratio (floor ≤ 1.5 with one substep);
-* ``rtf_loop``: real-time factor of the loop, simulated s per wall s (floor ≥ 30);
+* ``us_per_ms_loop``: the same for the full loop in compiled ranges
+  (:func:`rths3d.platform.ranges.track_batch`: inverse kinematics, gravity compensation,
+  velocity feed-forward, set-point lag and delay, the servo's ramp, ``mj_step`` through
+  MuJoCo's C API, safety checks, and every channel recorded each step: plate pose, leg
+  extensions and forces, FTS, interface displacement and wrench; each step's forces read at
+  its successor's start, which for the ramped set-point is the end-of-step sample);
+* ``loop_over_bare``: their ratio (floor ≤ 1.15 with one substep);
+* ``rtf_loop`` / ``rtf_bare``: real-time factors, simulated s per wall s (floor ≥ 30);
+* ``*_implicitfast``: the same with ``integrator = "implicitfast"`` (docs/platform.md);
+* ``us_per_ms_python_loop`` and ``python_loop_over_bare``: the Python driver, one
+  ``PlatformSim.step`` per step with its reads of ``pose`` and ``interface_wrench`` (the
+  readable reference path);
+* ``us_per_ms_bare_c``: ``mj_step`` with ``nstep`` (the C loop, no Python per step);
 * extras: ``us_scalar_ik`` (µs per 6-leg IK), ``us_per_ms_batch16_per_test`` and
-  ``rtf_batch16_aggregate`` (16 tests in one ``PlatformBatch`` on 2 threads).
+  ``rtf_batch16_aggregate`` (16 tests in one ``PlatformBatch`` on 2 threads, Python driver).
 
-Both are measured in one run, interleaved, ``--repeats`` times; medians are reported. The
-machine is shared and noisy: ratios measured side by side are the figures to trust.
+Measured in one run, interleaved, ``--repeats`` times; medians are reported. The machine is
+shared and noisy: ratios measured side by side are the figures to trust.
 Usage: ``python benchmarks/platform_loop.py [--quick] [--substeps N]``.
 """
 
@@ -37,6 +45,7 @@ def main() -> None:
     import numpy as np
 
     from rths3d.platform import PlatformConfig, PlatformSim, ScalarIK
+    from rths3d.platform.ranges import track_batch
 
     n = 2000 if args.quick else 5000
     repeats = args.repeats or (5 if args.quick else 9)
@@ -70,16 +79,41 @@ def main() -> None:
             sim.interface_wrench  # noqa: B018
         return (time.perf_counter() - t0) / n * 1e6
 
-    def run_bare() -> float:
+    def run_bare(sim=sim, ctrls=ctrls) -> float:
         sim.reset()
+        m, d = sim.model, sim.data
         ctrl = d.ctrl
-        nsub = cfg.substeps
+        nsub = sim.config.substeps
         mj_step = mujoco.mj_step
         t0 = time.perf_counter()
         for c in ctrls:
             ctrl[:6] = c
             mj_step(m, d, nsub)
         return (time.perf_counter() - t0) / n * 1e6
+
+    def run_bare_c() -> float:
+        sim.reset()
+        t0 = time.perf_counter()
+        mujoco.mj_step(m, d, n * cfg.substeps)
+        return (time.perf_counter() - t0) / n * 1e6
+
+    idx = np.arange(6, dtype=np.int64)
+    rows0 = np.concatenate([np.zeros((1, 6)), poses])  # row 0: the state before the steps
+
+    def run_compiled(sim=sim) -> float:
+        sim.reset()
+        t0 = time.perf_counter()
+        track_batch(sim._b, rows0, idx, lazy=True, compiled=True)
+        return (time.perf_counter() - t0) / n * 1e6
+
+    fast = PlatformSim(PlatformConfig(substeps=args.substeps, integrator="implicitfast"))
+    fast.reset()
+    fctrls = []
+    for r in rows:
+        fast.step(*r)
+        fctrls.append(fast.data.ctrl[:6].tolist())
+    run_compiled()  # the compiled kernels load (numba's on-disk cache) outside the timing
+    run_compiled(fast)
 
     ik = ScalarIK(cfg.geometry).ik
 
@@ -106,23 +140,42 @@ def main() -> None:
             batch.interface_wrench  # noqa: B018
         return (time.perf_counter() - t0) / nb * 1e6 / K
 
-    loop, bare, iks, ratios = [], [], [], []
+    loop, bare, iks, ratios, pyloop, pyratios, barec = [], [], [], [], [], [], []
+    floop, fbare, fratios = [], [], []
     for _ in range(repeats):
         b = run_bare()
-        lp = run_loop()
+        lp = run_compiled()
         loop.append(lp)
         bare.append(b)
         ratios.append(lp / b)
+        b2 = run_bare()
+        py = run_loop()
+        pyloop.append(py)
+        pyratios.append(py / b2)
+        barec.append(run_bare_c())
+        fb = run_bare(fast, fctrls)
+        fl = run_compiled(fast)
+        fbare.append(fb)
+        floop.append(fl)
+        fratios.append(fl / fb)
         iks.append(run_ik())
     batch_us = [run_batch() for _ in range(max(1, repeats // 2))]
-    us_loop = statistics.median(loop)
-    us_bare = statistics.median(bare)
+    med = statistics.median
+    us_loop = med(loop)
+    us_bare = med(bare)
     print(json.dumps({
         "us_per_ms_bare": round(us_bare, 3),
         "us_per_ms_loop": round(us_loop, 3),
-        "loop_over_bare": round(statistics.median(ratios), 4),
+        "loop_over_bare": round(med(ratios), 4),
         "rtf_loop": round(1000.0 / us_loop, 2),
         "rtf_bare": round(1000.0 / us_bare, 2),
+        "us_per_ms_bare_c": round(med(barec), 3),
+        "us_per_ms_python_loop": round(med(pyloop), 3),
+        "python_loop_over_bare": round(med(pyratios), 4),
+        "us_per_ms_loop_implicitfast": round(med(floop), 3),
+        "loop_over_bare_implicitfast": round(med(fratios), 4),
+        "rtf_loop_implicitfast": round(1000.0 / med(floop), 2),
+        "rtf_bare_implicitfast": round(1000.0 / med(fbare), 2),
         "us_scalar_ik": round(statistics.median(iks), 3),
         "us_per_ms_batch16_per_test": round(statistics.median(batch_us), 3),
         "rtf_batch16_aggregate": round(1000.0 / statistics.median(batch_us), 2),

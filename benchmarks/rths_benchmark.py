@@ -15,6 +15,10 @@ Prints ONE JSON line:
   velocity and polynomial with τ_c = 4 ms)
 * ``compensated_case_s`` — wall time of the same El Centro case with the calibrated ATS in
   place of the phase lead (``run_compensated``; calibration not included)
+* ``marths_case_s`` — wall time of one multi-axial benchmark run (maRTHS, El Centro × 0.4,
+  41.18 s at 1024 Hz, 42 169 steps, nominal plant, RoDeAC with the stored θ0/P0): reference
+  and numerical Newmark, feedback force, kinematics, plant, compensator and J1–J10 (null
+  without the maRTHS data folder); ``marths_us_per_step`` the same per loop step (µs)
 * ``repeats``
 
 ``--quick`` uses one repeat, two trials and 5 000 compensator calls.
@@ -60,6 +64,26 @@ def compensator_step_us(repeats: int, calls: int) -> dict[str, float]:
     return out
 
 
+def marths_case_s(repeats: int) -> tuple[float | None, float | None]:
+    """Median wall time (s) of one maRTHS El Centro run with RoDeAC, and µs per step; None
+    when the maRTHS data folder is absent."""
+    from rths3d.errors import ConfigError
+    from rths3d.rthsbench.marths import MarthsConfig, data_dir, run_marths
+
+    try:
+        data_dir()
+    except ConfigError:
+        return None, None
+    run_marths(MarthsConfig(t_end=0.5))  # compile and load
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        res = run_marths(MarthsConfig())[0]
+        times.append(time.perf_counter() - t0)
+    t = statistics.median(times)
+    return round(t, 4), round(1e6 * t / res.t.size, 3)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="one repeat, fewer trials")
@@ -98,6 +122,7 @@ def main() -> None:
     t0 = time.perf_counter()
     run_compensated(cfg, "ats", conf, gm=gm)
     t_comp = time.perf_counter() - t0
+    t_marths, us_marths = marths_case_s(repeats)
     print(json.dumps({
         "elcentro_case_s": round(t_case, 4),
         "loop_us_per_step": round(1e6 * t_case / res.t.size, 3),
@@ -106,6 +131,8 @@ def main() -> None:
         "max_abs_dev_published": round(dev, 4),
         "compensator_step_us": step_us,
         "compensated_case_s": round(t_comp, 4),
+        "marths_case_s": t_marths,
+        "marths_us_per_step": us_marths,
         "steps": int(res.t.size),
         "repeats": repeats,
     }))

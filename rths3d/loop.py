@@ -38,13 +38,13 @@ from tqdm import tqdm
 
 from .config import Scene
 from .errors import ConfigError
-from .metadata import record_meta
+from .metadata import record_metas
 from .numerical import LinearSubstructure, NumericalFactory
 from .record import Record, RecordBuffer
 from .reference import reference_solution
 from .safety import USER, SafetyMonitor
 from .scene import scene_to_dict, scene_with
-from .stepping import noise_buffer, post_step, pre_step, run_steps
+from .stepping import fill_known, noise_buffer, post_step, pre_step, run_steps
 from .surrogate.monitor import FidelityMonitor
 from .transfer import TransferSystem, batch_key, build_transfer, transfer_class
 
@@ -144,13 +144,12 @@ class _Group:
         self.c_zc, self.c_zm, self.c_f = c0, c0 + nd, c0 + 2 * nd
         self.c_x = self.ci["x_num.0"]
         data = np.zeros((self.N + 1, self.K, len(cols)))
-        data[:, :, 0] = (np.arange(self.N + 1) * self.dt)[:, None]
-        # f_ext per interface DOF: Γᵀ p (the external load seen at the interface); p_num per
-        # numerical DOF: p(t) itself (Γᵀ p loses it when Γ is not square; the energy needs it)
-        fe = self.ci[f"f_ext.{dofs[0]}"]
-        data[:, :, fe:fe + nd] = np.matmul(num.p, num.gamma).transpose(1, 0, 2)
-        pn = self.ci["p_num.0"]
-        data[:, :, pn:pn + num.n] = np.asarray(num.p).transpose(1, 0, 2)
+        # t; f_ext per interface DOF: Γᵀ p (the external load seen at the interface); p_num
+        # per numerical DOF: p(t) itself (Γᵀ p loses it when Γ is not square; the energy
+        # needs it) — one pass over the record array
+        fill_known(data, float(self.dt), np.ascontiguousarray(num.p, dtype=float),
+                   np.ascontiguousarray(num.gamma, dtype=float), 0,
+                   self.ci[f"f_ext.{dofs[0]}"], self.ci["p_num.0"])
         self.fidelity.blank(data, self.ci)
         self.data = data
         # the transfer system's extra signals: copies per step, converted when flushed
@@ -164,9 +163,9 @@ class _Group:
 
     def buffers(self) -> list[RecordBuffer]:
         out = []
+        metas = record_metas(self.scenes, self.num, self.transfer.metas)
         for k in range(self.K):
-            b = RecordBuffer(self.cols, 1, record_meta(self.scenes[k], self.num, k,
-                                                 self.transfer.metas[k]))
+            b = RecordBuffer(self.cols, 1, metas[k])
             b.data = self.data[:, k, :]
             b.n = 1
             out.append(b)

@@ -12,7 +12,9 @@ Single-DOF substructures may give scalars ``m, c, k`` instead of matrices ``M, C
 
 from __future__ import annotations
 
+import functools
 import math
+import os
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, fields, replace
@@ -44,6 +46,7 @@ from .record import DOFS
 from .scene_bench import (
     controller_dict,
     controller_table,
+    experiment_extra,
     platform_dict,
     platform_geometry,
     platform_table,
@@ -190,7 +193,22 @@ def _numerical(raw: Mapping[str, Any], n_if: int, dofs: tuple[str, ...]) -> Nume
                            integrator=integ)
 
 
+_BUILT: dict[tuple, Any] = {}
+"""Sections already validated (a batch's scenes share most): key → the frozen section."""
+
+
 def _build(cls: type, name: str, sec: Mapping[str, Any], checks: Mapping[str, dict]) -> Any:
+    # the same raw section (each value's type and exact repr) validates to the same section
+    key = (cls, name, tuple((k, type(v), repr(v)) for k, v in sec.items()))
+    if key not in _BUILT:
+        if len(_BUILT) > 4096:
+            _BUILT.clear()
+        _BUILT[key] = _build_section(cls, name, sec, checks)
+    return _BUILT[key]
+
+
+def _build_section(cls: type, name: str, sec: Mapping[str, Any],
+                   checks: Mapping[str, dict]) -> Any:
     kwargs: dict[str, Any] = {}
     defaults = cls()
     for f in fields(cls):
@@ -249,7 +267,7 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
     if part_cls.dofs and "dofs" in exp_sec:
         raise ConfigError("experiment.dofs", exp_sec["dofs"], f"the {exp_sec['kind']} part "
                           f"is tested through {list(part_cls.dofs)}: set the scene's dofs")
-    extra = _experiment_extra(exp_sec, dofs if not part_cls.dofs else ())
+    extra = experiment_extra(exp_sec, dofs if not part_cls.dofs else ())
     pos = {"lo": 0.0, "lo_open": True}
     nonneg = {"lo": 0.0}
     exp = _build(ExperimentConfig, "experiment", exp_sec, {
@@ -360,36 +378,6 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
                  transfer=tr, sensor=sen, safety=saf, dt=dt, duration=duration, source=source,
                  effects=effects, platform=platform, controller=controller)
 
-
-def _experiment_extra(sec: dict[str, Any], dofs: tuple[str, ...]) -> dict[str, Any]:
-    """Take the fields a shipped part does not use out of the raw ``[experiment]`` table
-    (edited in place): ``com`` (m), ``inertia`` as a tensor (kg·m²), ``file``, ``dofs``
-    (the scene's ``dofs`` for a part that is tested through any, when not given)."""
-    out: dict[str, Any] = {}
-    if "com" in sec:
-        v = sec.pop("com")
-        if not isinstance(v, list | tuple) or len(v) != 3:
-            raise ConfigError("experiment.com", v, "need [x, y, z] in m (sensor frame)")
-        out["com"] = tuple(_num(f"experiment.com[{i}]", x, unit="m") for i, x in enumerate(v))
-    for key in ("inertia", "inertia_tensor"):
-        if isinstance(sec.get(key), list | tuple):
-            v = sec.pop(key)
-            out["inertia_tensor"] = tuple(_num(f"experiment.inertia[{i}]", x, unit="kg·m²")
-                                          for i, x in enumerate(v))
-    if "file" in sec:
-        v = sec.pop("file")
-        if not isinstance(v, str) or not v:
-            raise ConfigError("experiment.file", v, "must be a path (string)")
-        out["file"] = v
-    v = sec.pop("dofs", list(dofs))
-    if isinstance(v, str):
-        v = [v]
-    if not isinstance(v, list | tuple) or any(not isinstance(d, str) for d in v):
-        raise ConfigError("experiment.dofs", v, f"must be a list of DOFs from {', '.join(DOFS)}")
-    if v:
-        out["dofs"] = tuple(d for d in DOFS if d in v) if all(d in DOFS for d in v) \
-            else tuple(v)
-    return out
 
 
 EFFECT_KEYS = ("name", "value", "leg", "axis")
@@ -586,8 +574,25 @@ def _relative_to(raw: dict[str, Any], folder: Path) -> dict[str, Any]:
         if isinstance(tab, Mapping) and isinstance(tab.get(key), str) and tab[key]:
             f = Path(tab[key]).expanduser()
             if not f.is_absolute():
-                raw = {**raw, sec: {**tab, key: str(folder.resolve() / f)}}
+                raw = {**raw, sec: {**tab, key: os.path.normpath(folder.resolve() / f)}}
     return raw
+
+
+def _section_items(section: Any) -> tuple[tuple[str, Any], ...]:
+    """The fields of a section (a frozen dataclass) as (name, value) pairs, NaN left out:
+    one :func:`dataclasses.asdict` per distinct section (a batch's tests share most)."""
+    try:
+        return _section_items_cached(section)
+    except TypeError:  # a section with an unhashable value
+        return _section_items_of(section)
+
+
+def _section_items_of(section: Any) -> tuple[tuple[str, Any], ...]:
+    return tuple((k, v) for k, v in asdict(section).items()
+                 if not (isinstance(v, float) and math.isnan(v)))
+
+
+_section_items_cached = functools.lru_cache(maxsize=256)(_section_items_of)
 
 
 def scene_to_dict(scene: Scene) -> dict[str, Any]:
@@ -604,10 +609,9 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
                             "K": [list(r) for r in nm.K], "gamma": [list(r) for r in nm.gamma],
                             "integrator": nm.integrator}
     for sec in ("experiment", "excitation", "transfer", "sensor", "safety"):
-        d = asdict(getattr(scene, sec))
-        out[sec] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in d.items()
-                    if not (isinstance(v, float) and math.isnan(v))
-                    and not (sec == "experiment" and k in EXPERIMENT_EXTRA and not v)}
+        out[sec] = {k: (list(v) if isinstance(v, tuple) else v)
+                    for k, v in _section_items(getattr(scene, sec))
+                    if not (sec == "experiment" and k in EXPERIMENT_EXTRA and not v)}
     if "inertia_tensor" in out["experiment"]:
         out["experiment"]["inertia"] = out["experiment"].pop("inertia_tensor")
     for sec, tab in (("platform", platform_dict(scene.platform)),

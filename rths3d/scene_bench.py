@@ -21,9 +21,11 @@ import numpy as np
 from .config import FEEDFORWARD, GRAVITY, HOLD, SAMPLE, ControllerConfig, PlatformDescription
 from .errors import ConfigError
 from .platform.geometry import DEFAULT_GEOMETRY, StewartGeometry
+from .record import DOFS
 
-__all__ = ["CONTROLLER_KEYS", "PLATFORM_KEYS", "controller_dict", "controller_table",
-           "platform_dict", "platform_geometry", "platform_table"]
+__all__ = ["CONTROLLER_KEYS", "PLATFORM_KEYS", "bench_origin", "bench_scene_text",
+           "controller_dict", "controller_table", "experiment_extra", "platform_dict",
+           "platform_geometry", "platform_table"]
 
 PATTERN = ("base_radius", "top_radius", "base_gap", "top_gap", "base_angle")
 """Geometry parameters of the parametric anchor pattern."""
@@ -34,6 +36,8 @@ CONTROLLER_KEYS = ("kp", "kv", "timeconst", "delay", "hold", "sample", "feedforw
                    "gravity")
 _SHARED = ("kp", "kv", "timeconst", "delay")
 """[controller] keys that today's [transfer] table also has."""
+_RANGES = {"kp": (0.0, 1e9, "N/m"), "kv": (0.0, 1e7, "N·s/m"), "timeconst": (0.0, 1.0, "s"),
+           "delay": (0.0, 0.5, "s")}
 
 
 def _number(field: str, v: Any, unit: str) -> float:
@@ -137,6 +141,37 @@ def platform_table(sec: Any) -> PlatformDescription:
                                                                  if k in sec))
 
 
+def experiment_extra(sec: dict[str, Any], dofs: tuple[str, ...]) -> dict[str, Any]:
+    """Take the fields a shipped part does not use out of the raw ``[experiment]`` table
+    (edited in place): ``com`` (m), ``inertia`` as a tensor (kg·m²), ``file``, ``dofs``
+    (the scene's ``dofs`` for a part that is tested through any, when not given)."""
+    out: dict[str, Any] = {}
+    if "com" in sec:
+        v = sec.pop("com")
+        if not isinstance(v, list | tuple) or len(v) != 3:
+            raise ConfigError("experiment.com", v, "need [x, y, z] in m (sensor frame)")
+        out["com"] = tuple(_number(f"experiment.com[{i}]", x, "m") for i, x in enumerate(v))
+    for key in ("inertia", "inertia_tensor"):
+        if isinstance(sec.get(key), list | tuple):
+            v = sec.pop(key)
+            out["inertia_tensor"] = tuple(_number(f"experiment.inertia[{i}]", x, "kg·m²")
+                                          for i, x in enumerate(v))
+    if "file" in sec:
+        v = sec.pop("file")
+        if not isinstance(v, str) or not v:
+            raise ConfigError("experiment.file", v, "must be a path (string)")
+        out["file"] = v
+    v = sec.pop("dofs", list(dofs))
+    if isinstance(v, str):
+        v = [v]
+    if not isinstance(v, list | tuple) or any(not isinstance(d, str) for d in v):
+        raise ConfigError("experiment.dofs", v, f"must be a list of DOFs from {', '.join(DOFS)}")
+    if v:
+        out["dofs"] = tuple(d for d in DOFS if d in v) if all(d in DOFS for d in v) \
+            else tuple(v)
+    return out
+
+
 def platform_geometry(desc: PlatformDescription) -> StewartGeometry:
     """The platform's geometry (today's default when the scene gives none)."""
     return desc.geometry if desc.geometry is not None else DEFAULT_GEOMETRY
@@ -161,8 +196,11 @@ def controller_table(sec: Any, transfer: dict[str, Any]) -> ControllerConfig:
         if key not in sec:
             continue
         v = sec[key]
-        if isinstance(v, bool) or not isinstance(v, int | float):
-            raise ConfigError(f"controller.{key}", v, "must be a number (SI units)")
+        lo, hi, unit = _RANGES[key]
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) \
+                or not (v > lo if key == "kp" else v >= lo) or v > hi:
+            raise ConfigError(f"controller.{key}", v, f"must be {'>' if key == 'kp' else '>='}"
+                              f" {lo:g} and <= {hi:g} {unit}")
         if key in transfer and transfer[key] != v:
             raise ConfigError(f"controller.{key}", v, f"differs from transfer.{key} = "
                               f"{transfer[key]!r} (set it in one table)")
@@ -217,3 +255,105 @@ def controller_dict(ctl: ControllerConfig) -> dict[str, Any]:
         if f.name != "given" and v != f.default:
             out[f.name] = v
     return out
+
+
+# ---------------------------------------------------------------------------- bench init
+_TRANS = {"M": 12.0, "C": 60.0, "K": 2.0e4, "f": 50.0}
+_ROT = {"M": 0.3, "C": 1.0, "K": 600.0, "f": 1.5}
+"""Placeholder numerical substructure per DOF (kg, N·s/m, N/m, N; kg·m², N·m·s/rad, N·m/rad,
+N·m): modes of 6–7 Hz, a few mm and mrad of motion under the placeholder sine."""
+
+
+def _toml(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_toml(x) for x in v) + "]"
+    return repr(float(v)) if isinstance(v, float) else str(v)
+
+
+def bench_scene_text(name: str, *, dofs: tuple[str, ...] = ("x", "y", "z", "rx", "ry", "rz"),
+                     platform: Mapping[str, Any] | None = None,
+                     controller: Mapping[str, Any] | None = None,
+                     part: Mapping[str, Any] | None = None, dt: float = 1.0e-3,
+                     duration: float = 10.0) -> str:
+    """A commented scene (TOML text) for a user's bench: its ``[platform]``, ``[controller]``
+    and part (``part``: the ``[experiment]`` table, default a 1 kg rigid payload), with a
+    placeholder numerical substructure (one spring-mass per interface DOF) and a gentle sine
+    force, so that it runs as written (``rths3d run``). Keys as in docs/bench.md."""
+    part = dict(part or {"kind": "rigid", "m": 1.0})
+    diag = [_ROT if d.startswith("r") else _TRANS for d in dofs]
+    n = len(dofs)
+
+    def mat(key: str) -> list[list[float]]:
+        return [[diag[i][key] if i == j else 0.0 for j in range(n)] for i in range(n)]
+
+    L = [f"# rths3d scene {name!r}, written by `rths3d bench init`: your bench, SI units "
+         "(m, rad, s, kg, N).",
+         "# Edit freely; docs/bench.md explains every key. The numerical substructure and the",
+         "# excitation are placeholders: put your test's there.",
+         f"name = {_toml(name)}", f"dofs = {_toml(list(dofs))}", f"dt = {dt!r}",
+         f"duration = {duration!r}", "",
+         "# placeholder numerical substructure: one spring-mass per interface DOF",
+         "[numerical]", f"M = {_toml(mat('M'))}", f"C = {_toml(mat('C'))}",
+         f"K = {_toml(mat('K'))}", "",
+         "# placeholder excitation: a 2 Hz sine force along every interface DOF",
+         "[excitation]", 'kind = "force"', 'signal = "sine"', "amplitude = 1.0",
+         "frequency = 2.0", f"direction = {_toml([d['f'] for d in diag])}", "",
+         "# the part on the force-torque sensor"
+         + (" (your MJCF file, mounted on the FTS site; world_* bodies fixed to the world)"
+            if part.get("kind") == "mjcf" else
+            " (a rigid payload: mass kg, centre of mass m from the FTS origin in the sensor "
+            "frame, inertia kg·m² about it)"),
+         "[experiment]"]
+    L += [f"{k} = {_toml(v)}" for k, v in part.items()]
+    L += ["", "# the Stewart platform (omitted keys: today's default platform; docs/bench.md)",
+          "[platform]"]
+    L += [f"{k} = {_toml(v)}" for k, v in (platform or {}).items()]
+    L += ["", "# the leg controller: servo gains N/m and N·s/m, lag and delay s; conventions",
+          "# hold ramp|zoh, sample end|start, feedforward backward|central|none, gravity "
+          "nominal|none",
+          "[controller]"]
+    L += [f"{k} = {_toml(v)}" for k, v in (controller or {}).items()]
+    L += ["", "[transfer]", 'kind = "stewart"', ""]
+    return "\n".join(L)
+
+
+_ORIGIN_DEFAULT = "today's default"
+
+
+def bench_origin(scene: Any, source: str) -> list[str]:
+    """Lines naming which parts of ``scene``'s bench came from the scene and which from
+    defaults (``rths3d diagnose`` prints them first); ``source``: where the scene came from
+    (a file, the record's ``scene_def``, or a default scene when neither was there)."""
+    p, c = scene.platform, scene.controller
+    if p.geometry_file:
+        geo = f"calibrated geometry file {p.geometry_file}"
+    elif "base_anchors" in p.given:
+        geo = "explicit anchors"
+    elif any(k in p.given for k in (*PATTERN, "home_height")):
+        geo = "parameters " + ", ".join(k for k in (*PATTERN, "home_height") if k in p.given)
+    else:
+        geo = _ORIGIN_DEFAULT
+    rest = [k for k in p.given if k not in (*PATTERN, "home_height", "base_anchors",
+                                             "top_anchors", "geometry_file")]
+    conv = ", ".join(f"{k} = {getattr(c, k)}" for k in ("hold", "sample", "feedforward",
+                                                         "gravity"))
+    t = scene.transfer
+    ctl_given = [k for k in c.given]
+    part = scene.experiment
+    what = part.kind + (f" file {part.file}" if part.file else "")
+    return [
+        f"bench from {source}",
+        f"  platform geometry: {geo}; limits, masses, FTS pose: "
+        + (", ".join(rest) + " from the scene, the rest default" if rest else
+           _ORIGIN_DEFAULT),
+        f"  controller: {conv} ("
+        + (", ".join(ctl_given) + " from the scene's [controller]" if ctl_given else
+           "conventions today's default") + f"); kp = {t.kp:g} N/m, kv = {t.kv:g} N·s/m, "
+        f"timeconst = {t.timeconst:g} s, delay = {t.delay:g} s",
+        f"  part: {what}; effects: "
+        + (", ".join(e.label for e in scene.effects) if scene.effects else "none"),
+    ]

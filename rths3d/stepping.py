@@ -25,8 +25,8 @@ from .safety import check_command, check_measured
 inline_njit = numba.njit(cache=True, nogil=True, inline="always")
 """numba's compiler for the loop's small per-step helpers, inlined into their caller."""
 
-__all__ = ["linear_step", "noise_buffer", "post_step", "pre_step", "record_row", "run_steps",
-           "transfer_step"]
+__all__ = ["fill_known", "linear_step", "noise_buffer", "post_step", "pre_step", "record_row",
+           "run_steps", "transfer_step"]
 
 
 @inline_njit
@@ -105,7 +105,7 @@ def run_steps(n0, n1, num, tr, io, mon, rec, noise_act, noise_sens):
             for k in range(K):
                 if not active[k] and row[k] == n:
                     # a stopped test rests (its load and state zeroed), the others go on
-                    P[k, :, :] = 0.0
+                    P[:, k, :] = 0.0
                     s[k, :] = 0.0
             if not active.any():
                 return n - n0
@@ -118,11 +118,29 @@ def run_steps(n0, n1, num, tr, io, mon, rec, noise_act, noise_sens):
                           active, code, dof, value, row, n):
             for k in range(K):
                 if not active[k] and row[k] >= n:
-                    P[k, :, :] = 0.0
+                    P[:, k, :] = 0.0
                     s[k, :] = 0.0
             if not active.any():
                 return n + 1 - n0
     return n1 - n0
+
+
+@njit
+def fill_known(data, dt, p, gamma, c_t, c_fe, c_pn):
+    """The record columns known before the run, in one pass over the record array (N+1, K,
+    C): the time t (s), f_ext = Γᵀ p and p_num = p for the loads p (K, N+1, n)."""
+    K, N1, n = p.shape
+    nd = gamma.shape[1]
+    for r in range(N1):
+        for k in range(K):
+            data[r, k, c_t] = r * dt
+            for j in range(nd):
+                acc = 0.0
+                for i in range(n):
+                    acc += p[k, r, i] * gamma[i, j]
+                data[r, k, c_fe + j] = acc
+            for i in range(n):
+                data[r, k, c_pn + i] = p[k, r, i]
 
 
 def noise_buffer(chain, steps: int, rows: int) -> np.ndarray:

@@ -23,10 +23,11 @@ from rths3d.compensation import (
     design_inverse,
 )
 from rths3d.errors import ConfigError, SafetyStop
-from rths3d.transfer.actuators import Compensator as TransferCompensator
 from rths3d.transfer.actuators import DelayLine, LTIActuator, default_transfer_function
+from rths3d.transfer.compensator import Compensator as TransferCompensator
 
-NAMES = ["none", "velocity", "polynomial", "lead", "ats", "inverse", "rls", "model_based"]
+NAMES = ["none", "velocity", "polynomial", "lead", "ats", "inverse", "rls", "rodeac",
+         "model_based"]
 
 
 def multisine(t: np.ndarray, lines=((0.3, 2e-3), (0.7, 1.5e-3), (1.3, 1e-3), (2.1, 5e-4)),
@@ -84,7 +85,7 @@ def test_registry_lists_every_compensator_and_builds_from_mappings():
     c = config_from_dict("ats", {"a1": 0.012, "a1_bounds": [0.0, 0.05], "filter_order": 4})
     assert c.a1 == 0.012 and c.a1_bounds == (0.0, 0.05) and c.filter_order == 4
     assert build("ats", 1, 1, 1e-3, c).config is c
-    assert set(CALIBRATIONS) == {"velocity", "polynomial", "ats", "rls", "inverse",
+    assert set(CALIBRATIONS) == {"velocity", "polynomial", "ats", "rls", "rodeac", "inverse",
                                  "model_based"}
 
 

@@ -37,6 +37,8 @@ def test_help_prints_usage_without_running(tmp_path, script):
     ("43_feature_probe.py", ["c.parquet", "--forward", "16"], "--forward: 16"),
     ("73_compensators_platform.py", ["--compensators", "ats,smith"], "'smith'"),
     ("73_compensators_platform.py", ["--duration", "0.1"], "--duration: 0.1"),
+    ("75_marths_stewart.py", ["--duration", "-1"], "duration: -1.0"),
+    ("76_rodeac_noise_seeds.py", ["--seeds", "1"], "--seeds: 1"),
 ])
 def test_bad_arguments_give_one_line_and_exit_2(tmp_path, script, args, needle):
     """A user mistake in an example's arguments prints one `error:` line, no traceback."""

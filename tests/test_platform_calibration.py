@@ -31,9 +31,9 @@ from rths3d.platform.calibration import (
     load_geometry,
     parameter_names,
     parameter_vector,
-    select_poses,
 )
 from rths3d.platform.fts_calibration import FTSCalibration, PayloadEstimator, load_wrench
+from rths3d.platform.pose_design import select_poses
 
 POSE_NOISE = (5e-6, 20e-6)  # pose measurement: 5 µm per translation, 20 µrad per angle
 ENCODER_NOISE = 1e-6  # leg encoders, m

@@ -10,7 +10,8 @@ import pytest
 from rths3d.errors import ConfigError, SafetyStop
 from rths3d.platform.kinematics import rotation_matrix
 from rths3d.platform.model import ActuatorConfig, PlatformConfig, build_model, predicted_delay
-from rths3d.platform.sim import PlatformBatch, PlatformSim
+from rths3d.platform.sim import PlatformBatch
+from rths3d.platform.single import PlatformSim
 from rths3d.platform.tracking import sine_trajectory, track, tracking_figures
 
 MASS = 2.0  # kg, payload of the FTS tests
@@ -391,7 +392,7 @@ def test_batch_translation_path_matches_full_path():
 
 def test_plate_pose_of_qpos_rows_matches_scalar_conversion():
     """plate_pose over (…, 7) rows gives the scalar pose conversion of PlatformSim."""
-    from rths3d.platform.sim import _quat_to_euler, plate_pose
+    from rths3d.platform.kernels import _quat_to_euler, plate_pose
 
     rng = np.random.default_rng(3)
     q = rng.normal(size=(4, 5, 7))

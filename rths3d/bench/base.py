@@ -171,8 +171,11 @@ class Bench:
         if self.geometry is None and not self.active("geometry"):
             return np.zeros(6)
         tg = self.true_geometry()
-        return self.platform.geometry.home_leg_lengths() - tg.home_leg_lengths() - \
-            tg.leg_offsets()
+        nom = self.platform.geometry
+        # a calibrated nominal geometry (a scene's geometry_file) knows its encoder offsets:
+        # only the true offsets beyond them are unseen
+        known = nom.leg_offsets() if isinstance(nom, CalibratedGeometry) else 0.0
+        return nom.home_leg_lengths() - tg.home_leg_lengths() - (tg.leg_offsets() - known)
 
     def gravity_scale(self) -> float:
         """The compensated weight relative to the nominal model's."""

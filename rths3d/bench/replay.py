@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,6 +25,7 @@ import numpy as np
 from ..config import EffectConfig, Scene
 from ..effects import WRENCH
 from ..errors import ConfigError, RecordError
+from ..platform.ranges import track_batch
 from ..platform.sim import plate_pose
 from ..record import DOFS, Record
 from .base import Bench, platform_batch
@@ -86,6 +88,9 @@ class BenchReplay:
         well below sensor noise, :mod:`rths3d.platform.sim`).
     nthread:
         Threads of the batched MuJoCo stepping.
+    compiled:
+        Step in compiled ranges (:mod:`rths3d.platform.compiled`); False: the Python driver,
+        one step at a time (the reference; both give the same channels).
     base:
         The bench to replay when it is given as a :class:`Bench` (its platform with the
         controller's conventions, part and effects) rather than by ``scene``, which then
@@ -93,9 +98,10 @@ class BenchReplay:
     """
 
     def __init__(self, scene: Scene, poses: ReplayInput | np.ndarray, *, substeps: int = 1,
-                 nthread: int = 2, base: Bench | None = None):
+                 nthread: int = 2, base: Bench | None = None, compiled: bool = True):
         self.scene = scene
         self.base = base
+        self.compiled = compiled
         p = poses.poses if isinstance(poses, ReplayInput) else np.asarray(poses, dtype=float)
         if p.ndim != 2 or p.shape[1] != 6 or p.shape[0] < 2:
             raise ConfigError("poses", f"array of shape {p.shape}", "need (N, 6), N >= 2")
@@ -137,73 +143,50 @@ class BenchReplay:
             key = any(eff.structural for eff, _ in b.active())
             groups.setdefault((key,), []).append(i)
         out: list[dict[str, np.ndarray] | None] = [None] * len(benches)
+        jobs = []
+        threaded = self.compiled and self.nthread > 1
+        if threaded and models is None:
+            models = [b.model() for b in benches]  # compiled here, not in the threads
         for idx in groups.values():
+            if threaded and len(idx) > 1:
+                # threads over tests: the compiled ranges release the GIL, so each thread
+                # steps its own share of the tests (each test's arithmetic is its own)
+                parts = np.array_split(np.asarray(idx), min(self.nthread, len(idx)))
+                jobs.extend(list(p) for p in parts)
+            else:
+                jobs.append(list(idx))
+
+        def job(idx: list[int]) -> None:
             res = self._run([benches[i] for i in idx], [effect_sets[i] for i in idx],
-                            None if models is None else [models[i] for i in idx])
+                            None if models is None else [models[i] for i in idx],
+                            1 if len(jobs) > 1 else self.nthread)
             for i, r in zip(idx, res, strict=True):
                 out[i] = r
+
+        if len(jobs) > 1 and self.compiled and self.nthread > 1:
+            with ThreadPoolExecutor(self.nthread) as pool:
+                list(pool.map(job, jobs))
+        else:
+            for j in jobs:
+                job(j)
         return out  # type: ignore[return-value]
 
-    def _run(self, benches: list[Bench], effect_sets: list, models) -> list[dict]:
+    def _run(self, benches: list[Bench], effect_sets: list, models,
+             nthread: int) -> list[dict]:
         K = len(benches)
         N = self.poses.shape[0]
-        n = len(self.dofs)
-        sim = platform_batch(benches, nthread=self.nthread, models=models, replay=True)
+        sim = platform_batch(benches, nthread=nthread, models=models, replay=True)
         self.nsim += K
         sensor = self._sensor(effect_sets)
         sensor.reset()
         idx = np.array([DOFS.index(d) for d in self.dofs], dtype=np.int64)
-        q = np.zeros((N, K, 7))
-        lq = np.zeros((N, K, 6))
-        lf = np.zeros((N, K, 6))
-        ft = np.zeros((N, K, 6))
-        zz = np.zeros((N, K, n))
-        ff = np.zeros((N, K, n))
-        q[0] = sim.live_qpos
-        lq[0] = sim._legs_q
-        lf[0] = sim._legs_f
-        ft[0] = sim.fts_reading
-        z = np.zeros((K, n))
-        f = np.zeros((K, n))
-        stop = np.full(K, N)
-        P = self.poses
         # a ramped set-point is a state (the servo's activation), so step r + 1's evaluation
-        # at its start is step r's end-of-step sample: the forces of step r are read after
-        # step r + 1 (PlatformBatch._advance(sample=False)), the pose right after step r. A
-        # held set-point jumps at the start of the step: then every step samples its end.
-        lazy = not sim.any_zoh
-        for r in range(1, N):
-            sim.poses[:] = P[r]
-            sim.poses_next[:] = P[min(r + 1, N - 1)]
-            if lazy:
-                sim._advance(sample=False)
-                sim._read_fts()
-                sim.read_start(idx, z, f)
-                if r >= 2:
-                    ff[r - 1] = f
-                    lf[r - 1] = sim.leg_force_sensor
-                    ft[r - 1] = sim.fts_reading
-            else:
-                sim._advance()
-                sim.read(idx, z, f)
-                ff[r] = f
-                lf[r] = sim._legs_f
-                ft[r] = sim.fts_reading
-            zz[r] = z
-            q[r] = sim.live_qpos
-            lq[r] = sim._legs_q
-            if sim._any_stopped:
-                for k in np.flatnonzero(sim.stopped & (stop == N)):
-                    stop[k] = r
-                if sim.stopped.all():
-                    break
-        if lazy:
-            sim.batch.forward()
-            sim._read_fts()
-            sim.read(idx, z, f)
-            ff[N - 1] = f
-            lf[N - 1] = sim._legs_f
-            ft[N - 1] = sim.fts_reading
+        # at its start is step r's end-of-step sample (lazy: one evaluation per step less);
+        # a held set-point jumps at the start of the step: then every step samples its end
+        rec = track_batch(sim, self.poses, idx, lazy=not sim.any_zoh,
+                          compiled=self.compiled)
+        q, lq, lf, ft, zz, ff, stop = rec.q, rec.legs_q, rec.legs_f, rec.fts, rec.z, rec.f, \
+            rec.stop
         # a bench that samples at the start of the step records every channel one row
         # earlier: row r holds the state at the end of step r − 1 (row 0, the rest, stays)
         shift = np.flatnonzero(sim.sample_start)

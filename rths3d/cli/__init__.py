@@ -11,6 +11,7 @@ import sys
 import typer
 
 from . import (  # noqa: F401  (modules register their commands on import)
+    bench,
     benchmark,
     diagnose,
     metrics,

@@ -10,6 +10,20 @@ from ._app import app, json_line
 from ._output import Keeper, write_text
 
 
+def _bench_origin(sc, scene: str | None, meta: dict) -> list[str]:
+    """The header lines: where the bench came from, part by part (scene or default)."""
+    from ..scene_bench import bench_origin
+
+    if scene:
+        source = f"the scene {scene}"
+    elif isinstance(meta.get("scene_def"), dict):
+        source = f"the record's scene ({meta.get('scene', 'scene_def')})"
+    else:
+        source = (f"no scene: the record has none and none was given (--scene); using the "
+                  f"default {sc.name!r}")
+    return bench_origin(sc, source)
+
+
 @app.command()
 def diagnose(
     measurement: Path = typer.Argument(..., help="Measurement record (.parquet or .csv)."),
@@ -69,6 +83,11 @@ def diagnose(
         check_output(save_scene, "--save-scene")
     rec, channels, warns = load_measurement(measurement)
     sc, bench_warns = resolve_bench(scene, rec.meta)
+    origin = _bench_origin(sc, scene, rec.meta)
+    if not json_out:
+        # first: which parts of the bench came from the scene and which from defaults
+        for line in origin:
+            typer.echo(line)
     warns = [*warns, *bench_warns]
     diag = Diagnosis(rec, sc, refit=refit)
     warns += diag.warnings
@@ -110,7 +129,7 @@ def diagnose(
         payload["hybrid"] = hyb
         payload["ignored_channels"] = list(diag.ignored)
         payload["bench"] = {"scene": sc.name, "part": sc.experiment.kind,
-                            "effects": [e.label for e in sc.effects]}
+                            "effects": [e.label for e in sc.effects], "origin": origin}
         typer.echo(json_line(payload))
         keeper.finish()
         return

@@ -271,7 +271,8 @@ def calibrate(
     """
     from ..errors import ConfigError
     from ..platform import DEFAULT_GEOMETRY
-    from ..platform.calibration import KinematicCalibration, load_geometry, load_pose_table
+    from ..platform.calibration import KinematicCalibration, load_geometry
+    from ..platform.pose_design import load_pose_table
     from ._app import json_line
 
     if out is not None:

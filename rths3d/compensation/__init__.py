@@ -12,6 +12,7 @@ name             command u from the desired z (and the measured z_meas)
 ``inverse``      inverse of an identified transfer function, filtered (feed-forward)
 ``rls``          FIR inverse model per channel by recursive least squares (RoDeAC-style)
 ``model_based``  inverse-model feed-forward + PI feedback on the tracking error
+``rodeac``       RoDeAC: RLS FIR inverse per channel, θ used at once, P₀ matrix (maRTHS)
 ===============  =========================================================================
 
 ``CALIBRATIONS`` holds the offline calibrations (``velocity``, ``polynomial``: τ_c = the
@@ -24,6 +25,7 @@ from . import ats as _ats
 from . import inverse as _inverse
 from . import polynomial as _polynomial
 from . import rls as _rls
+from . import rodeac as _rodeac
 from . import velocity as _velocity
 from .ats import ATSCompensator, ATSConfig
 from .base import (
@@ -44,6 +46,7 @@ from .model_based import ModelBasedCompensator, ModelBasedConfig
 from .none import NoCompensation, NoneConfig
 from .polynomial import PolynomialCompensator, PolynomialConfig, lagrange_weights
 from .rls import RLSCompensator, RLSConfig
+from .rodeac import RoDeACCompensator, RoDeACConfig
 from .velocity import VelocityCompensator, VelocityConfig
 
 CALIBRATIONS = {
@@ -51,6 +54,7 @@ CALIBRATIONS = {
     "polynomial": _polynomial.calibrate,
     "ats": _ats.calibrate,
     "rls": _rls.calibrate,
+    "rodeac": _rodeac.calibrate,
     "inverse": _inverse.calibrate,
     "model_based": _inverse.calibrate,
 }
@@ -62,7 +66,8 @@ __all__ = [
     "Compensator", "CompensatorConfig", "InverseCompensator", "InverseConfig", "InverseModel",
     "LeadCompensator", "LeadConfig", "ModelBasedCompensator", "ModelBasedConfig",
     "NoCompensation", "NoneConfig", "PolynomialCompensator", "PolynomialConfig",
-    "RLSCompensator", "RLSConfig", "VelocityCompensator", "VelocityConfig", "WatchConfig",
+    "RLSCompensator", "RLSConfig", "RoDeACCompensator", "RoDeACConfig",
+    "VelocityCompensator", "VelocityConfig", "WatchConfig",
     "build", "compensator_class", "compensator_names", "config_from_dict", "design_inverse",
     "lagrange_weights", "register",
 ]

@@ -15,6 +15,7 @@ import hashlib
 import inspect
 import itertools
 import os
+import pickle
 import threading
 import time
 from collections.abc import Callable
@@ -23,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 from .._lifeline import worker_init
 from ..errors import ConfigError
-from .runner import THREADS_ENV
+from .runner import add_progress, warm_tests
 from .spec import SweepSpec, batch_group_key
 from .store import SweepStore
 
@@ -218,18 +219,9 @@ def _rows_reporting(rows_fn: RowsFn, spec: SweepSpec, tests: list[dict[str, Any]
     return rows
 
 
-# In a worker process: the sweep's shared progress counter (tests' worth of work done).
-_worker_progress: Any = None
-
-
-def _add_progress(x: float) -> None:
-    with _worker_progress.get_lock():
-        _worker_progress.value += x
-
-
 def _rows_in_worker(rows_fn: RowsFn, spec: SweepSpec, tests: list[dict[str, Any]],
                     rec_dir: str | None) -> list[dict[str, Any]]:
-    return _rows_reporting(rows_fn, spec, tests, rec_dir, _add_progress)
+    return _rows_reporting(rows_fn, spec, tests, rec_dir, add_progress)
 
 
 def _run_pool(spec, todo, n, rec_dir, rows_fn, finished, bar) -> None:
@@ -245,9 +237,12 @@ def _run_pool(spec, todo, n, rec_dir, rows_fn, finished, bar) -> None:
     # nothing is left running: with the workers gone, the forkserver and the resource
     # tracker end too.
     lifeline_r, lifeline_w = ctx.Pipe(duplex=False)
+    # warm workers: each loads the imports and compiled kernels of the sweep's settings once,
+    # before its first batch (pickled here, unpickled after its lifeline is armed)
+    warm = pickle.dumps((spec, warm_tests(todo)))
     try:
         with ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=worker_init,
-                                 initargs=(lifeline_r, done)) as pool:
+                                 initargs=(lifeline_r, done, warm)) as pool:
             pending = {}
             it = iter(todo)
             # keep at most 2 batches per worker in flight so finished ones are written
@@ -283,23 +278,6 @@ def _run_pool(spec, todo, n, rec_dir, rows_fn, finished, bar) -> None:
     finally:
         lifeline_w.close()
         lifeline_r.close()
-
-
-def worker_setup(progress=None) -> None:
-    """The rest of a pool worker's start (after :func:`rths3d._lifeline.worker_init` has
-    bound its life to the sweep's): one core per worker, the shared progress counter."""
-    # One core per worker process: the parallelism is across processes (MuJoCo batches too:
-    # two 2-thread batches on 2 cores thrash, one thread each does not).
-    global _worker_progress
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
-    os.environ.setdefault(THREADS_ENV, "1")
-    try:
-        import torch
-
-        torch.set_num_threads(1)
-    except ImportError:  # pragma: no cover - torch is a dependency
-        pass
-    _worker_progress = progress
 
 
 SCHEDULER_TIMEOUT = 10.0

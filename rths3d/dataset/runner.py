@@ -32,6 +32,71 @@ THREADS_ENV = "RTHS3D_THREADS"
 worker processes set it to 1."""
 
 
+_progress: Any = None
+"""In a pool worker: the sweep's shared progress counter (tests' worth of work done)."""
+
+
+def worker_setup(progress=None, warm: bytes | None = None) -> None:
+    """The rest of a pool worker's start, after :func:`rths3d._lifeline.worker_init` has
+    bound its life to the sweep's: one core per worker, the shared progress counter, and a
+    warm start — ``warm`` (pickled ``(spec, tests)``, :func:`warm_tests`) runs those tests
+    for a few steps, so that the imports and compiled kernels of the sweep's settings are
+    loaded once per worker and kept for the sweep."""
+    global _progress
+    # One core per worker process: the parallelism is across processes (MuJoCo batches too:
+    # two 2-thread batches on 2 cores thrash, one thread each does not).
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    os.environ.setdefault(THREADS_ENV, "1")
+    try:
+        import torch
+
+        torch.set_num_threads(1)
+    except ImportError:  # pragma: no cover - torch is a dependency
+        pass
+    _progress = progress
+    if warm is not None:
+        import pickle
+
+        spec, tests = pickle.loads(warm)
+        warm_up(spec, tests)
+
+
+def add_progress(x: float) -> None:
+    """Add ``x`` tests' worth of work to the sweep's shared counter (in a pool worker)."""
+    if _progress is not None:
+        with _progress.get_lock():
+            _progress.value += x
+
+
+def warm_tests(batches: Sequence[tuple[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
+    """One test of each family and transfer system among ``batches`` (``[(id, tests)]``)."""
+    seen: dict[tuple, dict[str, Any]] = {}
+    for _, tests in batches:
+        for t in tests:
+            seen.setdefault((t["family"], t.get("transfer") or "",
+                             t["params"].get("transfer.kind", "")), t)
+    return list(seen.values())
+
+
+WARM_DURATION = 0.05
+"""Simulated time (s) of a worker's warm-up tests."""
+
+
+def warm_up(spec: SweepSpec, tests: list[dict[str, Any]]) -> None:
+    """Run ``tests`` of ``spec`` for :data:`WARM_DURATION` and drop their rows: the loop,
+    the reference, the measures and their compiled kernels are loaded. A warm-up that fails
+    leaves the loading to the first batch (which reports its own errors)."""
+    import dataclasses
+
+    short = dataclasses.replace(spec, duration=WARM_DURATION)
+    for t in tests:
+        params = {k: v for k, v in t["params"].items() if k != "duration"}
+        try:
+            run_rows(short, [{**t, "params": params}])
+        except Exception:  # noqa: BLE001 - the batch itself runs and reports
+            pass
+
+
 def _overrides(spec: SweepSpec, test: dict[str, Any], base=None) -> dict[str, Any]:
     ov = dict(test["params"])
     if spec.duration is not None:

@@ -24,8 +24,9 @@ Workflow (one *round*, docs/diagnosis.md):
    reported), ``noise_only`` (nothing significant, noise-like residual) or ``unexplained``.
 
 This module holds :class:`Diagnosis` (the replays, residuals, least-squares fits and the
-user's steps); a round's stages are in :mod:`.rounds` (timed per stage), the calibrations in
-:mod:`.calibrations`, the results in :mod:`.result`.
+user's steps); it derives a round's stages (``run``: screen, refit, rank, timed per stage)
+from :class:`~.rounds.RoundStages` and the calibrations from
+:class:`~.calibrations.Calibrations`; the results are in :mod:`.result`.
 """
 
 from __future__ import annotations
@@ -43,13 +44,13 @@ from ..effects import REGISTRY, get_effect, parse_label
 from ..errors import ConfigError, RecordError
 from ..record import Record
 from .bench import resolve_bench
-from .calibrations import multi
+from .calibrations import Calibrations
 from .candidates import PREFIX, Revision, is_revision
 from .candidates.screen import revise, screen_revisions
 from .localise import effective_samples, noise_floor
 from .measurement import check_measurement
 from .result import MULTI, NOISE_LIKE, Candidate, RoundResult, effect_configs
-from .rounds import run_round
+from .rounds import RoundStages
 
 __all__ = ["MULTI", "NOISE_LIKE", "Candidate", "Diagnosis", "RoundResult",
            "default_candidates"]
@@ -74,7 +75,7 @@ def default_candidates(scene: Scene) -> list[str]:
     return [*out, "fts_gain.fz", "fts_offset.fz", *MULTI]
 
 
-class Diagnosis:
+class Diagnosis(RoundStages, Calibrations):
     """Model-vs-measurement diagnosis of one record through its bench.
 
     Parameters
@@ -316,7 +317,7 @@ class Diagnosis:
         if is_revision(label):
             return self.revise(label)
         if label in MULTI or values is not None:
-            vals = dict(values) if values is not None else multi(self, label, self.predict())
+            vals = dict(values) if values is not None else self._multi(label, self.predict())
             if not vals:
                 raise ConfigError(label, None, "nothing to calibrate from this record")
             self.accepted.update(vals)
@@ -367,11 +368,6 @@ class Diagnosis:
         return dict(self.accepted)
 
     # ------------------------------------------------------------------ one round
-    def run(self) -> RoundResult:
-        """Screen every candidate, refit the best ``refit``, rank them (one round,
-        :mod:`.rounds`; its stages timed in ``RoundResult.seconds``)."""
-        return run_round(self)
-
     def _probe(self, label: str) -> float:
         """The probe value of a candidate: a typical magnitude; a speed limit at 80 % of the
         peak set-point speed of its leg."""

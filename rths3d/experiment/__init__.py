@@ -22,6 +22,7 @@ from .base import (
 from .build import build_part_model
 from .contact import ContactPart
 from .linear import LinearPart
+from .marths_frame import MarthsFramePart
 from .mjcf import specimen_model_xml
 from .mjcf_part import MjcfPart
 from .mujoco_specimen import MujocoSpecimen
@@ -34,6 +35,7 @@ __all__ = [
     "ContactPart",
     "ExperimentalPart",
     "LinearPart",
+    "MarthsFramePart",
     "MjcfPart",
     "MujocoSpecimen",
     "MultiDofPart",

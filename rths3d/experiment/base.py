@@ -110,9 +110,12 @@ class ExperimentalPart:
         """Record metadata ``experiment`` of the part (SI)."""
         k_exp, m_exp = self.interface_matrices()
         c = self.cfg
-        return {"kind": c.kind, "m_exp": c.m, "k_exp": k_exp, "m_exp_matrix": m_exp,
-                "d_exp": c.d, "c_exp": self.damping_matrix(), "h0": None,
-                "k_contact": c.k_contact, "d_contact": c.d_contact}
+        out = {"kind": c.kind, "m_exp": c.m, "k_exp": k_exp, "m_exp_matrix": m_exp,
+               "d_exp": c.d, "c_exp": self.damping_matrix(), "h0": None,
+               "k_contact": c.k_contact, "d_contact": c.d_contact}
+        if not has_numpy_model(c.kind):
+            out["model"] = NO_TWIN
+        return out
 
     # ------------------------------------------------------------------ models
     @classmethod
@@ -128,6 +131,10 @@ class ExperimentalPart:
         differ test by test: per-row arrays, or per-test MuJoCo models of one structure)."""
         return (settings.get("experiment.kind"), str(settings.get("experiment.substeps", 4)))
 
+
+NO_TWIN = ("MuJoCo only, no numpy twin (on the platform, or behind a prescribed mount for "
+           "the 1-D transfer systems and the reference)")
+"""What a record's ``meta.experiment.model`` says of a part without a numpy model."""
 
 PARTS: dict[str, type[ExperimentalPart]] = {}
 """Registered experimental parts by kind."""

@@ -9,7 +9,8 @@ document whose ``<worldbody>`` holds
   plus any geom or site placed directly in the worldbody; they are written in the same
   frame at home (axes parallel to the world's) and fixed to the world there.
 
-``<default>``, ``<asset>``, ``<contact>`` and ``<equality>`` sections are allowed; a
+``<default>``, ``<asset>`` (files relative to the fragment's folder), ``<contact>`` and
+``<equality>`` sections are allowed; a
 ``<compiler>`` may only say ``angle="radian"`` (the platform's convention). Every name and
 default class of the file gets the prefix ``part_`` (references follow), so the part's names
 never clash with the platform's; the file's top-level defaults become the class
@@ -33,7 +34,7 @@ import numpy as np
 
 from ..config import ExperimentConfig
 from ..errors import ConfigError
-from .base import ExperimentalPart, register_part
+from .base import NO_TWIN, ExperimentalPart, register_part
 
 PREFIX = "part_"
 WORLD = "world_"
@@ -60,6 +61,11 @@ class _Fragment:
             raise ConfigError(field, path, f"not valid XML: {exc}") from None
         if root.tag != "mujoco":
             raise ConfigError(field, path, f"root element is <{root.tag}>, must be <mujoco>")
+        folder = Path(path).resolve().parent
+        for e in root.iter():           # asset files (meshes, textures) beside the fragment
+            f = e.get("file")
+            if f and not Path(f).is_absolute():
+                e.set("file", str(folder / f))
         names = {e.get("name") for e in root.iter() if e.get("name")}
         classes = {e.get("class") for e in root.iter("default") if e.get("class")}
         for e in root.iter():
@@ -193,7 +199,7 @@ class MjcfPart(ExperimentalPart):
                 "m_exp": float(self._matrix()[0, 0]), "k_exp": k_exp, "m_exp_matrix": m_exp,
                 "d_exp": 0.0, "c_exp": self.damping_matrix(), "h0": None,
                 "k_contact": None, "d_contact": None,
-                "model": "MuJoCo (prescribed mount off the platform): no numpy twin"}
+                "model": NO_TWIN}
 
     @classmethod
     def batch_key(cls, settings: Mapping[str, Any]) -> Hashable:

@@ -10,7 +10,8 @@ __all__ = ["linear_step"]
 @njit
 def linear_step(Ad, Bf, P, n, f, s, s_next, Czx, Czv, Cx, z, zd, x):
     """s_{n+1} = A_d s_n + P_n − B_f F'_m(t_n) per test (matrices shared when their first
-    axis is 1), then z = C_zx s, ż = C_zv s, x = C_x s."""
+    axis is 1; the load terms P (N, K, S) step by step), then z = C_zx s, ż = C_zv s,
+    x = C_x s."""
     K, S = s.shape
     nd = f.shape[1]
     shared = Ad.shape[0] == 1
@@ -20,7 +21,7 @@ def linear_step(Ad, Bf, P, n, f, s, s_next, Czx, Czv, Cx, z, zd, x):
             acc = 0.0
             for j in range(S):
                 acc += s[k, j] * Ad[kk, i, j]
-            acc += P[k, n, i]
+            acc += P[n, k, i]
             fb = 0.0
             for d in range(nd):
                 fb += f[k, d] * Bf[kk, i, d]

@@ -87,13 +87,16 @@ def _read_csv(path: str, column: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def load_history(exc: ExcitationConfig, M: np.ndarray, C: np.ndarray, K: np.ndarray,
-                 t: np.ndarray, h0: float = float("nan")) -> np.ndarray:
-    """Load vector p(t_k) on the grid, shape (len(t), n) in N (or N·m)."""
+                 t: np.ndarray, h0: float = float("nan"),
+                 signal: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """Load vector p(t_k) on the grid, shape (len(t), n) in N (or N·m). ``signal``:
+    :func:`excitation_signal` of ``exc`` on ``t`` when the caller has it (tests that share
+    an excitation)."""
     M, C, K = (np.atleast_2d(np.asarray(a, float)) for a in (M, C, K))
     n = M.shape[0]
     if exc.kind == "none":
         return np.zeros((len(t), n))
-    a, da = excitation_signal(exc, t, h0)
+    a, da = excitation_signal(exc, t, h0) if signal is None else signal
     ones = np.ones(n)
     if exc.kind == "force":
         d = np.asarray(exc.direction, float) if exc.direction else ones

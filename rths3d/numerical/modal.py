@@ -103,3 +103,63 @@ def interface_delay_margin(M: np.ndarray, C: np.ndarray, K: np.ndarray, gamma: n
             if pm / wc < best[0]:
                 best = (pm / wc, wc, pm)
     return best
+
+
+def interface_delay_margins_1dof(m: ArrayLike, c: ArrayLike, k: ArrayLike, gamma: ArrayLike,
+                                 m_exp: ArrayLike, c_exp: ArrayLike, k_exp: ArrayLike, *,
+                                 n_grid: int = 1500, iterations: int = 60
+                                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`interface_delay_margin` of T tests with one DOF on each side, all at once:
+    arrays (T,) of τ_cr (s), ω_c (rad/s) and PM (rad) for the numerical m (kg), c (N·s/m),
+    k (N/m), Γ and the part's m_exp, c_exp, k_exp (one value or one per test).
+
+    The same grid and brackets as the scalar function; each bracket is refined by
+    ``iterations`` bisections on log ω for every test together (60 halve the grid's
+    bracket far below the scalar function's 1e-12), so the margins agree with it to
+    rounding. Tests whose eigenfrequencies do not give a finite grid (a massless part) get
+    NaN: the caller asks the scalar function for them."""
+    m, c, k, g, me, ce, ke = np.broadcast_arrays(*(np.asarray(a, float).reshape(-1) for a in
+                                                   (m, c, k, gamma, m_exp, c_exp, k_exp)))
+    T = m.size
+    with np.errstate(divide="ignore", invalid="ignore"):
+        wn = np.stack([np.sqrt(np.maximum(k / m, 0.0)), np.sqrt(ke / me),
+                       np.sqrt(np.maximum((k + g * g * ke) / (m + g * g * me), 0.0))])
+        pos = np.where(wn > 0, wn, np.inf).min(axis=0)
+        lo, hi = 1e-2 * pos, 1e2 * wn.max(axis=0)
+    ok = np.isfinite(lo) & np.isfinite(hi) & (lo > 0) & (hi > lo)
+    tau = np.full(T, np.inf)
+    wc_out = np.full(T, np.nan)
+    pm_out = np.full(T, np.nan)
+    tau[~ok] = np.nan
+    if not ok.any():
+        return tau, wc_out, pm_out
+    idx = np.flatnonzero(ok)
+
+    def mu(w: np.ndarray, r: np.ndarray) -> np.ndarray:
+        s1 = 1j * w
+        z = (ce[r] * s1 + ke[r]) * me[r] * s1 * s1 / (me[r] * s1 * s1 + ce[r] * s1 + ke[r])
+        return z * g[r] ** 2 / (m[r] * s1 * s1 + c[r] * s1 + k[r])
+
+    # the scalar function's grid, np.geomspace per test (the same floating-point points)
+    grid = np.stack([np.geomspace(lo[i], hi[i], int(n_grid)) for i in idx])
+    rows = np.broadcast_to(idx[:, None], grid.shape)
+    sgn = np.signbit(np.abs(mu(grid, rows)) - 1.0)
+    ti, gi = np.nonzero(sgn[:, 1:] != sgn[:, :-1])
+    if not ti.size:
+        return tau, wc_out, pm_out
+    r = idx[ti]
+    a, b = np.log(grid[ti, gi]), np.log(grid[ti, gi + 1])
+    fa = np.abs(mu(np.exp(a), r)) - 1.0
+    for _ in range(int(iterations)):
+        mid = 0.5 * (a + b)
+        fm = np.abs(mu(np.exp(mid), r)) - 1.0
+        left = np.signbit(fm) == np.signbit(fa)
+        a = np.where(left, mid, a)
+        fa = np.where(left, fm, fa)
+        b = np.where(left, b, mid)
+    wc = np.exp(0.5 * (a + b))
+    pm = (np.angle(mu(wc, r)) + np.pi) % (2 * np.pi)
+    t = pm / wc
+    for j in np.argsort(-t):  # the smallest delay of each test written last
+        tau[r[j]], wc_out[r[j]], pm_out[r[j]] = t[j], wc[j], pm[j]
+    return tau, wc_out, pm_out

@@ -40,7 +40,7 @@ class CubicSpringSubstructure:
         self.Kmat = self.k[:, None, None].copy()
         self.method = "rk4 (cubic spring)"
         self.s = np.zeros((self.K_tests, 2))
-        self.P = np.zeros((self.K_tests, 1, 2))  # no precomputed load terms (loop zeroes it)
+        self.P = np.zeros((1, self.K_tests, 2))  # no precomputed load terms (loop zeroes it)
         self.z = np.zeros((self.K_tests, 1))
         self.zdot = np.zeros((self.K_tests, 1))
         self.x = np.zeros((self.K_tests, 1))

@@ -11,7 +11,6 @@ from .calibration import (
     KinematicCalibration,
     identifiability,
     load_geometry,
-    select_poses,
 )
 from .fts_calibration import FTSCalibration, PayloadEstimator, load_wrench
 from .geometry import DEFAULT_GEOMETRY, StewartGeometry
@@ -26,7 +25,9 @@ from .kinematics import (
     rotation_matrix,
 )
 from .model import ActuatorConfig, PlatformConfig, build_model, build_spec, predicted_delay
-from .sim import PlatformBatch, PlatformSim, StaticState
+from .pose_design import select_poses
+from .sim import PlatformBatch, StaticState
+from .single import PlatformSim
 from .tracking import TrackingFigures, sine_delay, sine_trajectory, track, tracking_figures
 
 __all__ = [

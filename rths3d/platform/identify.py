@@ -47,7 +47,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..figures import new_figure, save_figure
 from .model import PlatformConfig
-from .sim import PlatformSim
+from .single import PlatformSim
 
 __all__ = [
     "DEFAULT_TF_PATH",

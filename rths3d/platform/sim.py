@@ -5,8 +5,14 @@ commanded poses (K, 6) relative to home, computes the leg set-points (inverse ki
 gravity compensation, velocity feed-forward) and checks the command limits in one compiled
 kernel, advances MuJoCo by one interface step (``mujoco.batch.Batch`` for K > 1, one
 ``MjData`` for K = 1, where a thread pool's dispatch costs more than the step) and checks
-the measured limits. :class:`PlatformSim` is the same code for one platform with float
-poses and a :class:`~rths3d.errors.SafetyStop` raised at a limit.
+the measured limits. :class:`~rths3d.platform.single.PlatformSim` is the same code for one
+platform with float poses and a :class:`~rths3d.errors.SafetyStop` raised at a limit. This
+one-step-at-a-time driver is the readable reference; a known command series runs in
+compiled ranges (:func:`rths3d.platform.ranges.track_batch`,
+:mod:`rths3d.platform.compiled`), which hand stops back to it and give the same records.
+
+The controller's conventions are each test's ``ActuatorConfig`` data (``hold``, ``sample``,
+``feedforward``); the defaults are the convention below (ramp, end, backward difference).
 
 Timing and zeroing convention (one for the vRTHS loop, the diagnosis' replay and synthetic
 measurements; docs/architecture.md, "The bench"):
@@ -36,366 +42,34 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import mujoco
-import mujoco.batch
-import numba
 import numpy as np
 
-from ..effects.blocks import Block, Chain, DelayBlock, LagBlock, njit
+from ..effects.blocks import Block, Chain, DelayBlock, LagBlock
 from ..errors import ConfigError, SafetyStop
+from .backend import _MAXVAL, StaticState, _Ids, _ManySims, _OneSim, static_state
+from .kernels import (
+    copy_fts,
+    end_ramp,
+    fts_distort,
+    interface_command,
+    leg_lengths_of,
+    leg_setpoints,
+    measured_over,
+    plate_pose,
+    quat_rows,
+    ramp_ctrl,
+    read_interface,
+    rotation,
+    take_sample,
+    world_wrench,
+)
 from .model import PlatformConfig, build_model
 
-__all__ = ["PlatformBatch", "PlatformSim", "StaticState", "static_state"]
-
-_BADQACC = 5  # mujoco.mjtWarning.mjWARN_BADQACC
-_MAXVAL = 1e10  # mjMAXVAL: MuJoCo flags |qacc| above this (or NaN) as a bad acceleration
-
-
-@dataclass(frozen=True)
-class StaticState:
-    """Static equilibrium at home (computed at reset).
-
-    Attributes
-    ----------
-    leg_forces:
-        Actuator forces that hold the platform and payload at home (N), (6,).
-    offsets:
-        Gravity-compensation set-point offsets ``leg_forces / kp`` (m), (6,).
-    preload:
-        Static wrench of everything mounted on the FTS, as the plate exerts it, in world
-        axes about the ``fts`` site origin: ``(0, 0, m g, τx, τy, 0)`` (N, N·m), (6,).
-    payload_mass:
-        Mass carried by the FTS (kg).
-    """
-
-    leg_forces: np.ndarray
-    offsets: np.ndarray
-    preload: np.ndarray
-    payload_mass: float
-
-
-class _Ids:
-    """Indices into the MuJoCo arrays, resolved once by name."""
-
-    def __init__(self, model) -> None:
-        self.slide_qpos = np.array([model.jnt_qposadr[model.joint(f"leg{i}_slide").id]
-                                    for i in range(6)])
-        self.slide_dof = np.array([model.jnt_dofadr[model.joint(f"leg{i}_slide").id]
-                                   for i in range(6)])
-        self.act = np.array([model.actuator(f"leg{i}").id for i in range(6)])
-        free = model.joint("plate_free").id
-        self.plate_qpos = int(model.jnt_qposadr[free])
-        self.plate_dof = int(model.jnt_dofadr[free])
-        self.plate_body = model.body("plate").id
-        self.fts_body = model.body("fts_body").id
-        self.fts_site = model.site("fts").id
-        self.force_adr = int(model.sensor_adr[model.sensor("fts_force").id])
-        self.torque_adr = int(model.sensor_adr[model.sensor("fts_torque").id])
-        self.legf_adr = int(model.sensor_adr[model.sensor("leg0_force").id])
-        self.quat_adr = int(model.sensor_adr[model.sensor("fts_quat").id])
-        mech = []
-        for i in range(6):
-            for j in ("u1", "u2", "slide"):
-                mech.append(int(model.jnt_dofadr[model.joint(f"leg{i}_{j}").id]))
-        mech.extend(range(self.plate_dof, self.plate_dof + 6))
-        self.mech_dof = np.array(mech)
-        self.tip_site = [model.site(f"leg{i}_tip").id for i in range(6)]
-        self.anchor_site = [model.site(f"plate_anchor{i}").id for i in range(6)]
-        self.contiguous_slides = bool(np.all(np.diff(self.slide_qpos) ==
-                                             self.slide_qpos[1] - self.slide_qpos[0]))
-
-
-def static_state(config: PlatformConfig, model, data, ids: _Ids | None = None) -> StaticState:
-    """Solve the static equilibrium of the closed chain at the current (home) configuration.
-
-    Unknowns: the six actuator forces and the 18 ``connect`` constraint forces; equations:
-    generalised force balance ``Sᵀ f + J_eqᵀ λ = qfrc_bias`` on the 24 mechanism DOFs (legs
-    and plate) at rest, where ``qfrc_bias`` holds the gravity of the plate *and* of everything
-    mounted on it. Exact for a payload at rest.
-    """
-    ids = ids or _Ids(model)
-    data.qvel[:] = 0.0
-    mujoco.mj_forward(model, data)
-    nv = model.nv
-    jeq = []
-    jp = np.zeros((3, nv))
-    for tip, anc in zip(ids.tip_site, ids.anchor_site, strict=True):
-        mujoco.mj_jacSite(model, data, jp, None, tip)
-        j1 = jp.copy()
-        mujoco.mj_jacSite(model, data, jp, None, anc)
-        jeq.append(j1 - jp)
-    jeq = np.concatenate(jeq)  # (18, nv)
-    D = ids.mech_dof
-    S = np.zeros((len(D), 6))
-    for i, dof in enumerate(ids.slide_dof):
-        S[np.flatnonzero(D == dof)[0], i] = 1.0
-    A = np.concatenate([S, jeq[:, D].T], axis=1)
-    sol, *_ = np.linalg.lstsq(A, data.qfrc_bias[D].copy(), rcond=None)
-    f = sol[:6]
-    mass = float(model.body_subtreemass[ids.fts_body])
-    g = -float(model.opt.gravity[2])
-    fw = np.array([0.0, 0.0, mass * g])
-    r = data.subtree_com[ids.fts_body] - data.site_xpos[ids.fts_site]
-    pre = np.concatenate([fw, np.cross(r, fw)])
-    kp = model.actuator_gainprm[ids.act, 0]  # per-model gains (a batch may expand them)
-    return StaticState(leg_forces=f, offsets=f / kp, preload=pre, payload_mass=mass)
-
-
-def _quat_to_euler(w: float, x: float, y: float, z: float) -> tuple[float, float, float]:
-    """Fixed-axis angles (rx, ry, rz) of a unit quaternion, R = Rz Ry Rx."""
-    r20 = 2.0 * (x * z - w * y)
-    r21 = 2.0 * (y * z + w * x)
-    r22 = 1.0 - 2.0 * (x * x + y * y)
-    r10 = 2.0 * (x * y + w * z)
-    r00 = 1.0 - 2.0 * (y * y + z * z)
-    r20 = -1.0 if r20 < -1.0 else (1.0 if r20 > 1.0 else r20)
-    return math.atan2(r21, r22), -math.asin(r20), math.atan2(r10, r00)
-
-
-def plate_pose(q: np.ndarray, home_height: float) -> np.ndarray:
-    """Poses (..., 6) relative to home (m, rad) of plate ``qpos`` rows (..., 7).
-
-    ``q`` = [x, y, z, w, qx, qy, qz] (MuJoCo free joint: position, unit quaternion); the
-    angles are the fixed-axis (rx, ry, rz) of :func:`_quat_to_euler`, R = Rz Ry Rx. Loops keep
-    the raw rows per step and convert whole histories at once with this.
-    """
-    w, x, y, z = q[..., 3], q[..., 4], q[..., 5], q[..., 6]
-    out = np.empty(q.shape[:-1] + (6,))
-    out[..., :3] = q[..., :3]
-    out[..., 2] -= home_height
-    out[..., 3] = np.arctan2(2 * (y * z + w * x), 1 - 2 * (x * x + y * y))
-    out[..., 4] = np.arcsin(np.clip(2 * (w * y - x * z), -1.0, 1.0))
-    out[..., 5] = np.arctan2(2 * (x * y + w * z), 1 - 2 * (y * y + z * z))
-    return out
-
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def rotation(rx, ry, rz):  # pragma: no cover - jit
-    """R = Rz(rz) Ry(ry) Rx(rx) of fixed-axis angles, as its 9 entries row by row (the
-    platform's inverse kinematics and the per-leg channels share it)."""
-    cx, sx = math.cos(rx), math.sin(rx)
-    cy, sy = math.cos(ry), math.sin(ry)
-    cz, sz = math.cos(rz), math.sin(rz)
-    return (cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx,
-            sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx,
-            -sy, cy * sx, cy * cx)
-
-
-@njit
-def leg_lengths_of(poses, b, p, hh, L):
-    """Leg lengths (K, 6) of the poses (K, 6) relative to home: the inverse kinematics of
-    :func:`leg_setpoints`."""
-    for k in range(poses.shape[0]):
-        x, y, tz = poses[k, 0], poses[k, 1], poses[k, 2] + hh
-        r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation(
-            poses[k, 3], poses[k, 4], poses[k, 5])
-        for i in range(6):
-            px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-            lx = x + r00 * px + r01 * py + r02 * pz - b[i, 0]
-            ly = y + r10 * px + r11 * py + r12 * pz - b[i, 1]
-            lz = tz + r20 * px + r21 * py + r22 * pz - b[i, 2]
-            L[k, i] = math.sqrt(lx * lx + ly * ly + lz * lz)
-
-
-@njit
-def leg_setpoints(poses, b, p, hh, home, ffg, Lprev, L, sp, half, vdt, run, ik,
-                  ffn, Lnext, ahead):
-    """Inverse kinematics, command limits and leg set-points of K platforms.
-
-    Leg i of test k: L = |t + R p_i − b_i| with R = :func:`rotation` and t the plate position
-    (home height ``hh`` added); the set-point ``L − L_home + g_ff·ΔL`` (velocity feed-forward
-    g_ff = kv/(kp ΔT); the set-point blocks, gravity compensation and encoder bias follow in
-    :func:`ramp_ctrl`) written to ``sp[k, i]`` for the tests in ``run``. ``ahead``: the
-    lengths ``Lnext`` of the next commanded poses are known (an open-loop replay) and the
-    forward difference adds ``ffn·(L_next − L)`` (central feed-forward: ``ffg = ffn =
-    kv/(2 kp ΔT)``). Returns the number
-    of running tests whose command leaves the stroke (±``half``) or the speed
-    (|ΔL| ≤ ``vdt``); those keep their set-point and ``Lprev`` (the caller stops them).
-    ``ik`` False: the lengths already in ``L`` are the ones to command (per-leg
-    compensation, :attr:`PlatformBatch.leg_hook`).
-    """
-    bad = 0
-    for k in range(poses.shape[0]):
-        if ik:
-            x, y, tz = poses[k, 0], poses[k, 1], poses[k, 2] + hh
-            r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation(
-                poses[k, 3], poses[k, 4], poses[k, 5])
-            for i in range(6):
-                px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-                lx = x + r00 * px + r01 * py + r02 * pz - b[i, 0]
-                ly = y + r10 * px + r11 * py + r12 * pz - b[i, 1]
-                lz = tz + r20 * px + r21 * py + r22 * pz - b[i, 2]
-                L[k, i] = math.sqrt(lx * lx + ly * ly + lz * lz)
-        ok = True
-        for i in range(6):
-            # `not <=`: a NaN command stops like an overrun
-            if not (abs(L[k, i] - home[i]) <= half and abs(L[k, i] - Lprev[k, i]) <= vdt):
-                ok = False
-        if not run[k]:
-            continue
-        if not ok:
-            bad += 1
-            continue
-        for i in range(6):
-            sp[k, i] = L[k, i] - home[i] + ffg[k] * (L[k, i] - Lprev[k, i])
-            Lprev[k, i] = L[k, i]
-        if ahead:
-            for i in range(6):
-                sp[k, i] += ffn[k] * (Lnext[k, i] - L[k, i])
-    return bad
-
-
-@njit
-def measured_over(q, v, f, half, vmax, fmax, run):
-    """Whether a running test's legs left stroke, speed or force (|·| above the limit)."""
-    for k in range(q.shape[0]):
-        if not run[k]:
-            continue
-        for i in range(q.shape[1]):
-            if abs(q[k, i]) > half or abs(v[k, i]) > vmax or abs(f[k, i]) > fmax:
-                return True
-    return False
-
-
-@njit
-def world_wrench(R, sens_f, sens_t, pre, rows, out):
-    """Rows ``rows`` of the FTS wrench in world axes minus the preload (N, N·m), (K, len)."""
-    for k in range(out.shape[0]):
-        for c in range(rows.shape[0]):
-            r = rows[c]
-            a = r % 3
-            src = sens_f if r < 3 else sens_t
-            out[k, c] = (R[k, 3 * a] * src[k, 0] + R[k, 3 * a + 1] * src[k, 1]
-                         + R[k, 3 * a + 2] * src[k, 2]) - pre[k, r]
-
-
-@njit
-def read_interface(q, hh, idx, R, sens_f, sens_t, pre, z, f, rest):
-    """Achieved interface DOFs ``idx`` (of x y z rx ry rz) from the plate qpos rows (K, 7),
-    relative to the rest pose ``rest`` (K, 6), and the measured interface wrench rows
-    ``idx`` (world axes, tare ``pre`` removed)."""
-    for k in range(q.shape[0]):
-        w, x, y, zq = q[k, 3], q[k, 4], q[k, 5], q[k, 6]
-        for c in range(idx.shape[0]):
-            i = idx[c]
-            if i < 3:
-                z[k, c] = q[k, i] - (hh if i == 2 else 0.0)
-            elif i == 3:
-                z[k, c] = math.atan2(2 * (y * zq + w * x), 1 - 2 * (x * x + y * y))
-            elif i == 4:
-                z[k, c] = math.asin(min(max(2 * (w * y - x * zq), -1.0), 1.0))
-            else:
-                z[k, c] = math.atan2(2 * (x * y + w * zq), 1 - 2 * (y * y + zq * zq))
-            z[k, c] -= rest[k, i]
-            a = i % 3
-            src = sens_f if i < 3 else sens_t
-            f[k, c] = (R[k, 3 * a] * src[k, 0] + R[k, 3 * a + 1] * src[k, 1]
-                       + R[k, 3 * a + 2] * src[k, 2]) - pre[k, i]
-
-
-@njit
-def interface_command(u, idx, poses):
-    """The interface DOFs ``idx`` of the commanded poses set to ``u`` (K, len(idx))."""
-    for k in range(u.shape[0]):
-        for c in range(idx.shape[0]):
-            poses[k, idx[c]] = u[k, c]
-
-
-@njit
-def ramp_ctrl(y, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0):
-    """Set-points of K platforms for the end of the step, ``cnew = y + off + bias`` (block
-    output, gravity compensation, encoder bias), and the set-point rate ``(cnew − cprev)/ΔT``
-    written to ``ctrl[k, a0 + i]`` (the servo integrates it: a linear ramp over the step);
-    a zero-order hold (``zoh[k]``) instead sets the servo's set-point (activation
-    ``act[k, s0 + i]``) to ``cnew`` now and holds it (rate 0); stopped tests hold (rate 0)."""
-    for k in range(y.shape[0]):
-        for i in range(6):
-            if run[k]:
-                c = y[k, i] + off[k, i] + bias[k, i]
-                cnew[k, i] = c
-                if zoh[k]:
-                    act[k, s0 + i] = c
-                    ctrl[k, a0 + i] = 0.0
-                else:
-                    ctrl[k, a0 + i] = (c - cprev[k, i]) * inv_dt
-            else:
-                ctrl[k, a0 + i] = 0.0
-
-
-@njit
-def end_ramp(cnew, cprev, act, s0, run):
-    """After the step: the servo set-points (activations ``act[k, s0 + i]``) are exactly
-    ``cnew`` (no rounding drift of the integration), and ``cprev = cnew``."""
-    for k in range(cnew.shape[0]):
-        if run[k]:
-            for i in range(6):
-                act[k, s0 + i] = cnew[k, i]
-                cprev[k, i] = cnew[k, i]
-
-
-@njit
-def take_sample(start, want, q, lq, lf, R, qm, lqm, lfm, Rm, sf, st, C, bo, reading):
-    """The measured channels of the tests whose sampling instant ``start[k]`` is ``want``:
-    plate qpos, leg extensions and forces, the FTS orientation (row-major) and its reading
-    ``C w + b`` copied from the live state into the sample buffers."""
-    for k in range(q.shape[0]):
-        if start[k] != want:
-            continue
-        for c in range(q.shape[1]):
-            qm[k, c] = q[k, c]
-        for i in range(6):
-            lqm[k, i] = lq[k, i]
-            lfm[k, i] = lf[k, i]
-        for c in range(9):
-            Rm[k, c] = R[k, c]
-        for r in range(6):
-            acc = bo[k, r]
-            for c in range(3):
-                acc += C[k, r, c] * sf[k, c] + C[k, r, 3 + c] * st[k, c]
-            reading[k, r] = acc
-
-
-@njit
-def quat_rows(q, R):
-    """Row-major rotation matrices (K, 9) of unit quaternions (K, 4) (w, x, y, z)."""
-    for k in range(q.shape[0]):
-        w, x, y, z = q[k, 0], q[k, 1], q[k, 2], q[k, 3]
-        R[k, 0] = 1 - 2 * (y * y + z * z)
-        R[k, 1] = 2 * (x * y - w * z)
-        R[k, 2] = 2 * (x * z + w * y)
-        R[k, 3] = 2 * (x * y + w * z)
-        R[k, 4] = 1 - 2 * (x * x + z * z)
-        R[k, 5] = 2 * (y * z - w * x)
-        R[k, 6] = 2 * (x * z - w * y)
-        R[k, 7] = 2 * (y * z + w * x)
-        R[k, 8] = 1 - 2 * (x * x + y * y)
-
-
-@njit
-def copy_fts(sf, st, out):
-    """The FTS reading (K, 6) of an ideal sensor: MuJoCo's force and torque."""
-    for k in range(sf.shape[0]):
-        for c in range(3):
-            out[k, c] = sf[k, c]
-            out[k, 3 + c] = st[k, c]
-
-
-@njit
-def fts_distort(sf, st, C, b, of, ot):
-    """Raw FTS reading of a miscalibrated sensor: ``w' = C w + b`` per test (K, 6, 6)."""
-    for k in range(sf.shape[0]):
-        for r in range(6):
-            acc = b[k, r]
-            for c in range(3):
-                acc += C[k, r, c] * sf[k, c] + C[k, r, 3 + c] * st[k, c]
-            if r < 3:
-                of[k, r] = acc
-            else:
-                ot[k, r - 3] = acc
+__all__ = ["PlatformBatch", "StaticState", "interface_command", "plate_pose", "rotation",
+           "static_state"]
 
 
 def _ff_gains(config: PlatformConfig) -> tuple[float, float]:
@@ -408,71 +82,6 @@ def _ff_gains(config: PlatformConfig) -> tuple[float, float]:
     g = a.kv / a.kp / config.dt
     return (g, 0.0) if a.feedforward == "backward" else (0.5 * g, 0.5 * g)
 
-
-class _OneSim:
-    """The part of ``mujoco.batch.Batch`` the platform uses, for one ``MjData``."""
-
-    def __init__(self, model) -> None:
-        self.m = model
-        self.d = mujoco.MjData(model)
-        self.models = None
-        self._warn = self.d.warning[_BADQACC]
-        self._seen = self._warn.number
-
-    def bind(self, name: str) -> np.ndarray:
-        return getattr(self.d, name)[None]
-
-    def get_model(self, k: int):
-        return self.m
-
-    def set_time(self, t: float) -> None:
-        self.d.time = t
-
-    def reset(self) -> None:
-        mujoco.mj_resetData(self.m, self.d)
-
-    def set_const(self) -> None:
-        mujoco.mj_setConst(self.m, self.d)
-
-    def forward(self) -> None:
-        mujoco.mj_forward(self.m, self.d)
-
-    def step(self, nstep: int = 1, ids=None) -> None:
-        mujoco.mj_step(self.m, self.d, nstep)
-
-    def failed(self, expected: float) -> np.ndarray | None:
-        """Which simulations diverged (MuJoCo's bad-acceleration warning since the last
-        call; it then resets the state silently); None when none did."""
-        n = self._warn.number
-        if n == self._seen:
-            return None
-        self._seen = n
-        return np.array([True])
-
-    def error(self, k: int) -> str:
-        return f"MuJoCo bad acceleration at DOF {self._warn.lastinfo}, state was reset"
-
-
-class _ManySims:
-    """``mujoco.batch.Batch`` with the adapter's extra methods."""
-
-    def __init__(self, model, nsim: int, nthread: int) -> None:
-        self.batch = mujoco.batch.Batch(model, nsim, nthread)
-        self._time = self.batch.bind("time")
-
-    def __getattr__(self, name: str):
-        return getattr(self.batch, name)
-
-    def set_time(self, t: float) -> None:
-        self._time[:] = t
-
-    def failed(self, expected: float) -> np.ndarray | None:
-        """MuJoCo resets a simulation whose acceleration blows up and carries on from time 0;
-        the batch does not expose the warning counters, so a simulation time behind the
-        expected one (or a status) is the signature of that reset. None when none did."""
-        if self._time.min() >= expected and not self.batch.status.any():
-            return None
-        return (self._time < expected) | (self.batch.status != 0)
 
 class PlatformBatch:
     """K platforms (one model structure, per-test parameters) stepped together.
@@ -1024,131 +633,3 @@ class PlatformBatch:
         idx, out = self._rows(rows)
         world_wrench(self._fts_R, self._fts_force, self._fts_torque, self._pre, idx, out)
         return out
-
-
-class PlatformSim:
-    """One simulated platform stepped at the interface rate ΔT = ``config.dt``.
-
-    Parameters
-    ----------
-    config:
-        Platform configuration (geometry, actuators, step).
-    payload_xml, world_xml:
-        MJCF fragments: the experimental part on the FTS, extra world bodies.
-    settle:
-        Simulated time (s) held at home during :meth:`reset` so the chain and the payload
-        settle before the test starts.
-
-    After ``reset()``, call ``step(x, y, z, rx, ry, rz)`` once per ΔT with the commanded pose
-    (m, rad, relative to home): the same compiled kernels as :class:`PlatformBatch` (it is
-    one, with K = 1). ``step`` raises :class:`~rths3d.errors.SafetyStop` when a commanded leg
-    leaves its stroke or speed limit (before stepping), when a measured leg leaves its
-    stroke, speed or force limit, or when MuJoCo reports a bad acceleration (divergence;
-    MuJoCo would otherwise silently reset the state). The stop's time ``t`` is the time the
-    offending step's command was meant for (``(k + 1)·ΔT`` for step k). A stopped platform
-    stays stopped, as a bench would: ``stopped_by`` holds the stop and every later ``step``
-    raises it again until :meth:`reset`.
-    """
-
-    def __init__(self, config: PlatformConfig | None = None, payload_xml: str | None = None,
-                 world_xml: str | None = None, settle: float = 0.05):
-        self._b = PlatformBatch(config, 1, 1, payload_xml, world_xml, settle)
-        self.config = self._b.config
-        self.model = self._b.model
-        self.data = self._b.batch.d
-        self.ids = self._b.ids
-        self.settle = self._b.settle
-        self._pose = np.zeros((1, 6))
-        self._h = self._b._hh
-        self._smax, self._vmax, self._fmax = self._b._half, self._b._vmax, self._b._fmax
-        self.stopped_by: SafetyStop | None = None
-        """The SafetyStop that stopped the platform (``step`` raises it again), or None."""
-        self._raise_if_stopped()
-
-    @property
-    def static(self) -> StaticState:
-        """Static equilibrium at home (computed at reset)."""
-        return self._b.statics[0]
-
-    def reset(self) -> None:
-        """Home pose, static equilibrium with gravity compensation, settle; ``t = 0``."""
-        self._b.reset()
-        self.stopped_by = None
-        self._raise_if_stopped()
-
-    def _raise_if_stopped(self) -> None:
-        stop = self._b.stops[0]
-        if stop is not None:
-            self.stopped_by = stop
-            raise stop
-
-    @property
-    def t(self) -> float:
-        """Simulated test time (s) since reset (interface steps × ΔT)."""
-        return self._b.t
-
-    def step(self, x: float, y: float, z: float, rx: float, ry: float, rz: float) -> None:
-        """Command the pose (m, rad, relative to home) for one interface step ΔT."""
-        if self.stopped_by is not None:
-            raise self.stopped_by
-        p = self._pose
-        p[0, 0], p[0, 1], p[0, 2], p[0, 3], p[0, 4], p[0, 5] = x, y, z, rx, ry, rz
-        self._b.step(p)
-        if self._b.stopped[0]:
-            self._raise_if_stopped()
-
-    def _check_measured(self, q: Sequence[float], v: Sequence[float],
-                        f: Sequence[float]) -> None:
-        """Raise the SafetyStop for the first leg (then stroke, speed, force) out of limits."""
-        self._b._measured_limits(np.array([q], float), np.array([v], float),
-                                 np.array([f], float))
-        self._raise_if_stopped()
-
-    # ------------------------------------------------------------------ reads
-    @property
-    def pose(self) -> tuple[float, float, float, float, float, float]:
-        """Achieved plate pose relative to home (m, rad), from the plate body's state."""
-        px, py, pz, w, qx, qy, qz = self._b.plate_qpos[0].tolist()
-        rx, ry, rz = _quat_to_euler(w, qx, qy, qz)
-        return px, py, pz - self._h, rx, ry, rz
-
-    @property
-    def leg_lengths(self) -> tuple[float, ...]:
-        """Achieved leg lengths (m): home length + piston extension."""
-        return tuple(self._b.leg_lengths[0].tolist())
-
-    @property
-    def leg_commands(self) -> tuple[float, ...]:
-        """Leg lengths (m) commanded by the last step (inverse kinematics of the pose)."""
-        return tuple(self._b._Lprev[0].tolist())
-
-    @property
-    def leg_forces(self) -> tuple[float, ...]:
-        """Actuator forces (N), positive pushing the plate away from the base."""
-        return tuple(self._b.meas_legs_f[0].tolist())
-
-    @property
-    def wrench(self) -> tuple[float, ...]:
-        """Raw FTS wrench ``(fx, fy, fz, tx, ty, tz)`` in the ``fts`` site frame (N, N·m).
-
-        The force and torque the plate exerts on the sensor's tool side and everything
-        mounted on it (payload weight included), torque about the site origin.
-        """
-        return tuple(self._b.wrench[0].tolist())
-
-    @property
-    def interface_wrench(self) -> tuple[float, ...]:
-        """Restoring wrench ``f_meas`` of the experimental part (N, N·m), 6 floats.
-
-        World axes, static preload (payload weight at home) removed: the force the platform
-        exerts on the specimen, so a positive value resists a positive displacement
-        (docs/architecture.md). Torque about the ``fts`` site origin.
-        """
-        return tuple(self._b.interface_force(range(6))[0].tolist())
-
-    def equality_gap(self) -> float:
-        """Largest distance between a leg tip and its plate anchor (m)."""
-        mujoco.mj_kinematics(self.model, self.data)
-        x = self.data.site_xpos
-        return float(max(np.linalg.norm(x[a] - x[b]) for a, b in
-                         zip(self.ids.tip_site, self.ids.anchor_site, strict=True)))

@@ -1,6 +1,6 @@
 """Pose tracking: command a 6-DOF trajectory sampled at the interface rate, record the result.
 
-:func:`track` drives a :class:`~rths3d.platform.sim.PlatformSim` through a trajectory of
+:func:`track` drives a :class:`~rths3d.platform.single.PlatformSim` through a trajectory of
 poses (N, 6) and returns a :class:`~rths3d.record.Record` with the columns of the record
 schema: ``pose_cmd.<dof>``, ``pose_meas.<dof>``, ``z_cmd.<dof>`` / ``z_meas.<dof>`` (the same
 poses, as interface signals), ``f_meas.<dof>`` (restoring wrench, world axes, preload
@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import ConfigError, SafetyStop
 from ..record import DOFS, WRENCH_COMPONENTS, Record
 from .model import PlatformConfig, predicted_delay
-from .sim import PlatformSim
+from .single import PlatformSim
 
 __all__ = [
     "TrackingFigures",

@@ -3,7 +3,6 @@ platform), registered by name behind :class:`TransferSystem`; compensators and t
 force-sensor model as components of them."""
 
 from .actuators import (
-    Compensator,
     DelayLine,
     LTIActuator,
     PerTestDelayLine,
@@ -26,6 +25,7 @@ from .base import (
 )
 from .chain import ChainTransfer
 from .commands import compensator_key, compensator_of
+from .compensator import Compensator
 from .delay import DelayTransfer
 from .ideal import IdealTransfer
 from .lti import LTITransfer

@@ -6,8 +6,9 @@ lag, gain, offset, noise) and :mod:`rths3d.compensation`; this module holds the
 platform's identified heave model G(s) (:func:`default_transfer_function`,
 :func:`follow_servo_settings`, :func:`default_transport_delay`), its zero-order-hold
 discretisation through python-control (:func:`discretise_tf`), and small callables over the
-blocks (:class:`DelayLine`, :class:`LTIActuator`, :class:`SensorModel`, :class:`Compensator`)
-for users who step one piece on its own.
+blocks (:class:`DelayLine`, :class:`LTIActuator`, :class:`SensorModel`; the compensator's in
+:mod:`.compensator`) for users who step one piece on its own. It imports nothing of
+:mod:`rths3d.compensation`, whose inverse compensator reads the identified model here.
 """
 
 from __future__ import annotations
@@ -20,7 +21,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..compensation import build
 from ..effects.blocks import (
     Chain,
     DelayBlock,
@@ -247,31 +247,6 @@ class PerTestLTIActuator(_Blocks):
         self.ns = max(r[0].shape[0] for r in rows)
         """The largest model order (the others are padded)."""
         super().__init__(K, n, [block])
-
-
-class Compensator:
-    """Delay compensation of a (K, n) command: ``velocity`` z + τ_c ż (τ_c one or per test),
-    ``polynomial`` (Lagrange extrapolation of ``order``), ``none``
-    (:mod:`rths3d.compensation`)."""
-
-    def __init__(self, K: int, n: int, kind: str, tau: float | Sequence[float], dt: float,
-                 order: int = 2):
-        if np.ndim(tau) and kind != "velocity":
-            raise ValueError(f"per-test tau needs kind 'velocity', not {kind!r}")
-        if kind == "polynomial":
-            self.comp = build("polynomial", K, n, dt, {"tau": float(tau), "order": order})
-        elif kind == "velocity":
-            taus = tuple(float(t) for t in np.ravel(tau)) if np.ndim(tau) else float(tau)
-            self.comp = build("velocity", K, n, dt, {"tau": taus})
-        else:
-            self.comp = build("none", K, n, dt)
-        self.kind = kind
-
-    def reset(self) -> None:
-        self.comp.reset()
-
-    def __call__(self, z: np.ndarray, zdot: np.ndarray) -> np.ndarray:
-        return self.comp.command(z, zdot, z)
 
 
 class SensorModel(_Blocks):

@@ -1,0 +1,343 @@
+"""``rodeac``: robust decentralised adaptive compensation (RoDeAC; Quiroz, Gálmez &
+Fermandois 2024, the reference controller of the multi-axial RTHS benchmark;
+FermandoisLab/maRTHS-bmk-RoDeAC), one RLS adaptive FIR inverse per channel.
+
+Per channel at call k, with the channel's signals in the controller's unit (channel unit ×
+``signal_scale``: mm for a channel in m, as RoDeAC runs):
+
+    φ_t,k = [z_k, z_{k−1}, …, z_{k−N+1}]            taps of the target
+    x̃_k   = B(q) x_m,k,   φ_k = [x̃_k, …, x̃_{k−N+1}]   taps of the low-passed measurement
+    g_k   = P_{k−1} φ_k / (λ + φ_kᵀ P_{k−1} φ_k)
+    θ_k   = θ_{k−1} + g_k (ũ_k − θ_{k−1}ᵀ φ_k),   ũ = B(q) u (same low-pass, own state)
+    P_k   = (P_{k−1} − g_k φ_kᵀ P_{k−1}) / λ
+    u_k   = θ_kᵀ φ_t,k                                 (θ_k used at the same call)
+
+B is a Butterworth low-pass (4th order, 20 Hz; MATLAB ``butter``'s direct form). ũ_k depends
+on u_k through B's direct term b₀ and u_k on θ_k: Simulink solves this algebraic loop; it is
+linear, so it is solved exactly here (``algebraic_loop=True``: θ_k = θ_{k−1} + g_k e₀ /
+(1 − b₀ φ_t,kᵀ g_k) with e₀ the error at u_k = θ_{k−1}ᵀφ_t,k), or in one pass (False).
+
+θ₀ and P₀ come from an offline calibration (:func:`calibrate`, RoDeAC's batch least squares
+of the target on the raw measured taps: θ₀ = (ΓᵀΓ)⁻¹Γᵀz, P₀ = (ΓᵀΓ)⁻¹ with Γ in channel
+units, m — RoDeAC computes P₀ from regressors in m and uses it with signals in mm, which
+``signal_scale = 1000`` reproduces). P₀ = 0 keeps θ = θ₀ (the non-adaptive variant).
+
+Bounds (safety, not in RoDeAC): the inverse's DC gain Σθ must stay within ``gain_bounds``;
+an estimate outside them for longer than ``bound_time``, a non-finite command or an
+oscillating one (:class:`~.base.WatchConfig`) stops the test with the reason.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numba import njit
+
+from .base import (
+    WATCH_STATES,
+    BaseCompensator,
+    WatchConfig,
+    butter_sos,
+    check,
+    check_bounds,
+    register,
+    watch_step,
+)
+
+
+@dataclass(frozen=True)
+class RoDeACConfig(WatchConfig):
+    """Parameters.
+
+    Attributes
+    ----------
+    taps: FIR length N (RoDeAC: 4), taps one call apart.
+    theta0: initial θ: N values for every channel, or N per channel flattened channel by
+      channel; empty: θ = [1, 0, …] (no compensation to start).
+    p0: initial covariance: one value (p0·I), N² values (one matrix, row-major) for every
+      channel, or N² per channel; in 1/(channel unit)² as RoDeAC stores it. Default 1e4.
+    forgetting: λ (-), 1 in RoDeAC.
+    filter_order, filter_hz: Butterworth low-pass B on x_m and u (4, 20 Hz; order 0: none).
+    signal_scale: the controller's unit per channel unit (1000: mm for a channel in m).
+    algebraic_loop: solve the loop through b₀ exactly (True) or in one pass.
+    gain_bounds: allowed DC gain Σθ of the inverse (-), [0.05, 20] (RoDeAC with λ = 1 drifts
+      toward small Σθ while only sensor noise is measured, e.g. 0.21 before the motion).
+    bound_time: time (s) Σθ may stay outside its bounds before the test stops, 0.25 s.
+    osc_*: the command-oscillation watch (:class:`~.base.WatchConfig`).
+    """
+
+    taps: int = 4
+    theta0: tuple[float, ...] = ()
+    p0: tuple[float, ...] = (1e4,)
+    forgetting: float = 1.0
+    filter_order: int = 4
+    filter_hz: float = 20.0
+    signal_scale: float = 1000.0
+    algebraic_loop: bool = True
+    gain_bounds: tuple[float, float] = (0.05, 20.0)
+    bound_time: float = 0.25
+
+    def __post_init__(self) -> None:
+        N = self.taps
+        check("rodeac.taps", self.taps, 1 <= self.taps <= 32, "must be in 1…32")
+        check("rodeac.theta0", list(self.theta0),
+              all(math.isfinite(v) for v in self.theta0)
+              and (len(self.theta0) == 0 or len(self.theta0) % N == 0),
+              f"must be empty or {N} values (taps) per channel")
+        check("rodeac.p0", list(self.p0), len(self.p0) >= 1
+              and all(math.isfinite(v) for v in self.p0)
+              and (len(self.p0) == 1 or len(self.p0) % (N * N) == 0),
+              f"must be one value or {N * N} (an N×N matrix) per channel")
+        check("rodeac.forgetting", self.forgetting, 0.0 < self.forgetting <= 1.0,
+              "must be in (0, 1]")
+        check("rodeac.filter_order", self.filter_order, 0 <= self.filter_order <= 8,
+              "must be in 0…8")
+        check("rodeac.filter_hz", self.filter_hz, self.filter_hz > 0, "must be > 0 Hz")
+        check("rodeac.signal_scale", self.signal_scale,
+              self.signal_scale > 0 and math.isfinite(self.signal_scale), "must be > 0")
+        check_bounds("rodeac.gain_bounds", self.gain_bounds)
+        check("rodeac.bound_time", self.bound_time, self.bound_time >= 0.0, "must be ≥ 0 s")
+
+
+@njit(cache=True, nogil=True)
+def _lfilter_step(b, a, zi, x):
+    """One sample of ``b/a`` (transposed direct form II, a[0] = 1); state ``zi`` (order,)."""
+    n = zi.shape[0]
+    y = b[0] * x + (zi[0] if n else 0.0)
+    for i in range(n - 1):
+        zi[i] = b[i + 1] * x - a[i + 1] * y + zi[i + 1]
+    if n:
+        zi[n - 1] = b[n] * x - a[n] * y
+    return y
+
+
+_TIMER = 0
+
+
+@njit(cache=True, nogil=True)
+def _rodeac_step(z, zm, u, theta, P, pt, px, zi_x, zi_u, st, b, a, watch, hp, wp, stopped,
+                 code, ev_val, ev_lim, prm, Pphi):
+    """One call for all (K, n) channels; ``prm`` = [scale, λ, exact loop, gain lo, gain hi,
+    bound_time, dt]. ``pt``/``px`` (K, n, N): target and filtered-measurement taps."""
+    scale, lam, exact = prm[0], prm[1], prm[2] > 0.5
+    glo, ghi, bound_time, dt = prm[3], prm[4], prm[5], prm[6]
+    b0 = b[0]
+    K, n = z.shape
+    N = theta.shape[2]
+    event = False
+    for k in range(K):
+        if stopped[k]:
+            continue
+        for j in range(n):
+            xt = z[k, j] * scale
+            xm = zm[k, j] * scale
+            for i in range(N - 1, 0, -1):
+                pt[k, j, i] = pt[k, j, i - 1]
+                px[k, j, i] = px[k, j, i - 1]
+            pt[k, j, 0] = xt
+            px[k, j, 0] = _lfilter_step(b, a, zi_x[k, j], xm)
+            den = lam
+            th_t = 0.0
+            th_m = 0.0
+            for r in range(N):
+                acc = 0.0
+                for c in range(N):
+                    acc += P[k, j, r, c] * px[k, j, c]
+                Pphi[r] = acc
+                den += px[k, j, r] * acc
+                th_t += theta[k, j, r] * pt[k, j, r]
+                th_m += theta[k, j, r] * px[k, j, r]
+            rk = zi_u[k, j, 0] if zi_u.shape[2] else 0.0
+            e = b0 * th_t + rk - th_m
+            if exact:
+                gt = 0.0
+                for r in range(N):
+                    gt += Pphi[r] * pt[k, j, r]
+                e = e / (1.0 - b0 * gt / den)
+            for r in range(N):
+                theta[k, j, r] += Pphi[r] / den * e
+            for r in range(N):
+                for c in range(r, N):
+                    v = (P[k, j, r, c] - Pphi[r] * Pphi[c] / den) / lam
+                    P[k, j, r, c] = v
+                    P[k, j, c, r] = v
+            uk = 0.0
+            g = 0.0
+            for r in range(N):
+                uk += theta[k, j, r] * pt[k, j, r]
+                g += theta[k, j, r]
+            _lfilter_step(b, a, zi_u[k, j], uk)
+            u[k, j] = uk / scale
+            s = st[k, j]
+            if not (glo <= g <= ghi):
+                s[_TIMER] += dt
+                if s[_TIMER] > bound_time and code[k, j] == 0:
+                    code[k, j] = 1
+                    ev_val[k, j] = g
+                    ev_lim[k, j] = glo if g < glo else ghi
+                    event = True
+            else:
+                s[_TIMER] = 0.0
+            if not math.isfinite(uk) and code[k, j] == 0:
+                code[k, j] = 2
+                ev_val[k, j] = uk
+                ev_lim[k, j] = 0.0
+                event = True
+            osc, ru, lim = watch_step(hp, watch[k, j], u[k, j], z[k, j], wp)
+            if osc and code[k, j] == 0:
+                code[k, j] = 3
+                ev_val[k, j] = ru
+                ev_lim[k, j] = lim
+                event = True
+        for j in range(n):
+            if code[k, j] != 0:
+                stopped[k] = True
+    return event
+
+
+LABELS = ("inverse DC gain Σθ (channel {ch}) outside its bounds",
+          "non-finite command (channel {ch})",
+          "command oscillation (channel {ch}, high-pass RMS)")
+UNITS = ("", "", "")
+
+
+def butter_ba(order: int, cutoff: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """MATLAB ``butter(order, cutoff/(fs/2))``: (b, a); order 0 gives (1, 1)."""
+    import scipy.signal
+
+    if order <= 0:
+        return np.array([1.0]), np.array([1.0])
+    b, a = scipy.signal.butter(order, cutoff, fs=1.0 / dt)
+    return np.ascontiguousarray(b, dtype=float), np.ascontiguousarray(a, dtype=float)
+
+
+def _per_channel(field: str, values: tuple[float, ...], size: int, K: int, n: int,
+                 shape: tuple[int, ...]) -> np.ndarray:
+    v = np.asarray(values, dtype=float)
+    if v.size == size:
+        one = v.reshape(shape)
+        return np.broadcast_to(one, (K, n, *shape)).copy()
+    if v.size == n * size:
+        return np.broadcast_to(v.reshape(n, *shape), (K, n, *shape)).copy()
+    check(field, list(values), False, f"must be {size} values, or {n * size} ({size} per "
+          "channel)")
+    raise AssertionError  # pragma: no cover
+
+
+@register
+class RoDeACCompensator(BaseCompensator):
+    """RoDeAC (see module docstring). ``coefficients()``: ``theta0``…``theta{N−1}`` and
+    ``gain`` = Σθ (-), (K, n)."""
+
+    name = "rodeac"
+    rank = 65
+    Config = RoDeACConfig
+
+    def __init__(self, config: RoDeACConfig, K: int, n: int, dt: float):
+        super().__init__(config, K, n, dt)
+        c = config
+        check("rodeac.filter_hz", c.filter_hz, c.filter_order == 0 or c.filter_hz < 0.5 / dt,
+              f"must be below the Nyquist frequency {0.5 / dt:g} Hz")
+        c.check_watch("rodeac", dt)
+        N = c.taps
+        if c.theta0:
+            self.theta_init = _per_channel("rodeac.theta0", c.theta0, N, K, n, (N,))
+        else:
+            self.theta_init = np.zeros((K, n, N))
+            self.theta_init[:, :, 0] = 1.0
+        if len(c.p0) == 1:
+            self.p_init = np.broadcast_to(np.eye(N) * c.p0[0], (K, n, N, N)).copy()
+        else:
+            self.p_init = _per_channel("rodeac.p0", c.p0, N * N, K, n, (N, N))
+        self.b, self.a = butter_ba(c.filter_order, c.filter_hz, dt)
+        order = self.a.size - 1
+        self.hp = butter_sos(2, c.osc_corner, dt, "highpass")
+        self.wp = c.watch_params(dt)
+        self.prm = np.array([c.signal_scale, c.forgetting, 1.0 if c.algebraic_loop else 0.0,
+                             c.gain_bounds[0], c.gain_bounds[1], c.bound_time, dt])
+        self.theta = np.zeros((K, n, N))
+        self.P = np.zeros((K, n, N, N))
+        self.pt = np.zeros((K, n, N))
+        self.px = np.zeros((K, n, N))
+        self.zi_x = np.zeros((K, n, order))
+        self.zi_u = np.zeros((K, n, order))
+        self.st = np.zeros((K, n, 1))
+        self.watch = np.zeros((K, n, WATCH_STATES))
+        self.code = np.zeros((K, n), dtype=np.int64)
+        self.ev_val = np.zeros((K, n))
+        self.ev_lim = np.zeros((K, n))
+        self._Pphi = np.zeros(N)
+        self._gain = np.zeros((K, n))
+        self.reset()
+
+    def reset(self) -> None:
+        super().reset()
+        self.theta[:] = self.theta_init
+        self.P[:] = self.p_init
+        for arr in (self.pt, self.px, self.zi_x, self.zi_u, self.st, self.watch, self.ev_val,
+                    self.ev_lim):
+            arr[:] = 0.0
+        self.code[:] = 0
+
+    def command(self, z: np.ndarray, zdot: np.ndarray, z_meas: np.ndarray) -> np.ndarray:
+        if _rodeac_step(z, z_meas, self.u, self.theta, self.P, self.pt, self.px, self.zi_x,
+                        self.zi_u, self.st, self.b, self.a, self.watch, self.hp, self.wp,
+                        self.stopped, self.code, self.ev_val, self.ev_lim, self.prm,
+                        self._Pphi):
+            self._events(self.code, self.ev_val, self.ev_lim, LABELS, UNITS)
+        self.calls += 1
+        return self.u
+
+    def history(self) -> np.ndarray:
+        return self.theta
+
+    def history_coefficients(self, states: np.ndarray) -> dict[str, np.ndarray]:
+        out = {f"theta{i}": states[..., i] for i in range(states.shape[-1])}
+        out["gain"] = states.sum(axis=-1)
+        return out
+
+    def coefficients(self) -> dict[str, np.ndarray]:
+        th = self.theta
+        out = {f"theta{i}": th[:, :, i] for i in range(th.shape[2])}
+        np.sum(th, axis=2, out=self._gain)
+        out["gain"] = self._gain
+        return out
+
+
+def fit_inverse(target: np.ndarray, measured: np.ndarray, taps: int = 4
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """RoDeAC's batch least squares for one channel: Γ rows [x_m,k, …, x_m,k−N+1] (raw
+    measurement, k from the N-th sample), θ = (ΓᵀΓ)⁻¹Γᵀ z_k and P = (ΓᵀΓ)⁻¹, in the units
+    of the data. Returns (θ (N,), P (N, N))."""
+    z = np.asarray(target, dtype=float).ravel()
+    x = np.asarray(measured, dtype=float).ravel()
+    if z.shape != x.shape or z.size < 10 * taps:
+        raise ValueError(f"target {z.shape} and measured {x.shape}: need equal shapes and "
+                         "enough samples")
+    n = z.size
+    G = np.stack([x[taps - 1 - i: n - i] for i in range(taps)], axis=1)
+    GtG = G.T @ G
+    P = np.linalg.inv(GtG)
+    return P @ (G.T @ z[taps - 1:]), 0.5 * (P + P.T)
+
+
+def calibrate(u: np.ndarray, z_meas: np.ndarray, dt: float,
+              config: RoDeACConfig | None = None) -> RoDeACConfig:
+    """RoDeAC's offline calibration on one recorded test: ``u`` (N,) or (N, n) the commands
+    (targets) sent at each call, ``z_meas`` the measurements passed at the same calls (the
+    answer to the previous call's command), in channel units. Sets θ₀ and P₀ per channel
+    (:func:`fit_inverse`)."""
+    config = config or RoDeACConfig()
+    U = np.asarray(u, dtype=float)
+    X = np.asarray(z_meas, dtype=float)
+    if U.ndim == 1:
+        U, X = U[:, None], X[:, None]
+    th, ps = [], []
+    for j in range(U.shape[1]):
+        t, p = fit_inverse(U[:, j], X[:, j], config.taps)
+        th.append(t)
+        ps.append(p.ravel())
+    return replace(config, theta0=tuple(float(v) for v in np.concatenate(th)),
+                   p0=tuple(float(v) for v in np.concatenate(ps)))

@@ -1,0 +1,74 @@
+"""`kill -9` of a sweep process takes every process it started with it, at any moment: the
+Table-1 LTI sweep (13230 tests, 2 workers) killed 5 s after its start and mid-run (workers
+warm and stepping their first batches); 5 s later no process of its session is alive
+(workers, forkserver, resource tracker). A killed process runs no clean-up: the workers go by
+their lifeline and the parent-death signal (:mod:`rths3d._lifeline`)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SPEC = ROOT / "scenes" / "sweeps" / "table1_lti.toml"
+
+pytestmark = pytest.mark.skipif(not os.path.isdir("/proc") or not SPEC.exists(),
+                                reason="reads /proc; needs scenes/sweeps/table1_lti.toml")
+
+
+def _session(sid: int) -> list[tuple[int, str]]:
+    """Live processes (no zombies) of session ``sid``, with their command lines."""
+    found = []
+    for d in os.listdir("/proc"):
+        if not d.isdigit():
+            continue
+        try:
+            with open(f"/proc/{d}/stat") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+            with open(f"/proc/{d}/cmdline", "rb") as f:
+                cmd = f.read().replace(b"\0", b" ").decode(errors="replace")
+        except OSError:
+            continue
+        if int(fields[3]) == sid and fields[0] != "Z":
+            found.append((int(d), cmd))
+    return found
+
+
+@pytest.mark.parametrize("when", ["5s", "mid-run"])
+def test_kill_9_of_the_table1_sweep_leaves_no_process(tmp_path, when) -> None:
+    """SIGKILL to the sweep process alone (not its group) at 5 s, or once its two workers,
+    the forkserver and the resource tracker are up and the workers have run 3 s: within 5 s
+    every process of its session has gone."""
+    cmd = [sys.executable, "-m", "rths3d", "sweep", str(SPEC), "--out", str(tmp_path / "o"),
+           "--workers", "2", "--quiet"]
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True, cwd=ROOT, env=env)
+    left: list[tuple[int, str]] = []
+    try:
+        t0 = time.time()
+        if when == "5s":
+            time.sleep(5.0)
+        else:
+            while time.time() < t0 + 120 and proc.poll() is None \
+                    and len(_session(proc.pid)) < 5:
+                time.sleep(0.05)
+            assert len(_session(proc.pid)) >= 5, "the workers never came up"
+            time.sleep(3.0)
+        assert proc.poll() is None, "the sweep ended before it could be killed"
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait()
+        killed = time.time()
+        while _session(proc.pid) and time.time() < killed + 5.0:
+            time.sleep(0.05)
+        left = _session(proc.pid)
+    finally:
+        for pid, _ in _session(proc.pid):
+            os.kill(pid, signal.SIGKILL)
+    assert left == [], left
