@@ -36,7 +36,9 @@ def diagnose(
     add: list[str] = typer.Option([], "--add",
                                   help="`EFFECT[.leg<i>][.<axis>]` (fitted) or `...=value` (held "
                                        "at value, SI unit), or kinematic_calibration / "
-                                       "fts_calibration; repeatable."),
+                                       "fts_calibration, or a revision of the "
+                                       "description as ranked (`scene:controller.hold=zoh`); "
+                                       "repeatable."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object."),
     report: Path | None = typer.Option(None, "--report",
                                        help="Write report.md, plots and replay.parquet here."),
@@ -60,12 +62,14 @@ def diagnose(
 
     from ..diagnose import Diagnosis, load_measurement
     from ..diagnose.bench import resolve_bench
+    from ..diagnose.candidates import is_revision
     from ..diagnose.engine import MULTI
     from ..effects import parse_effect_arg
     from ..errors import ConfigError
     from ..figures import check_output
 
-    adds = [(a.strip(), None) if a.strip() in MULTI else parse_effect_arg(a) for a in add]
+    adds = [(a.strip(), None) if a.strip() in MULTI or is_revision(a.strip())
+            else parse_effect_arg(a) for a in add]
     names = [name for name, _ in adds]
     for a, name in zip(add, names, strict=True):
         if names.count(name) > 1:
@@ -117,6 +121,7 @@ def diagnose(
     if json_out:
         payload = result.as_dict()
         payload["waterfall"] = diag.waterfall
+        payload["revisions"] = diag.revisions
         payload["rounds"] = [r.proposal.effect if r.proposal else None for r in rounds]
         payload["warnings"] = warns
         payload["report"] = str(report_path) if report_path else None
@@ -142,7 +147,8 @@ def diagnose(
         tab.add_column(col)
     for i, c in enumerate(result.candidates[:15], 1):
         val = f"{c.value:.4g} {c.unit}" if math.isfinite(c.value) else \
-            (f"{len(c.values)} parameters" if c.values else "–")
+            (f"{len(c.values)} parameters" if c.values else
+             f"{c.k} parameter(s) of the scene" if c.changes else "–")
         tab.add_row(str(i), c.effect, val,
                     f"{c.score:.1f}" if math.isfinite(c.score) else "–",
                     f"{c.error_before:.3f} → {c.error_after:.3f}"
@@ -161,6 +167,7 @@ def diagnose(
         p = result.proposal
         if p is not None:
             what = f"{p.param} = {p.value:.4g} {p.unit}" if math.isfinite(p.value) else \
+                ", ".join(f"{k} = {v}" for k, v in p.changes.items()) if p.changes else \
                 f"{len(p.values)} parameters"
             verb = "proposal: add" if st == "effect_proposed" else "partly explained by"
             con.print(f"{verb} [bold]{p.effect}[/] ({what}); rerun with --add {p.effect}")
@@ -174,6 +181,9 @@ def diagnose(
             (f"; band {r['band_hz'][0]:.3g}–{r['band_hz'][1]:.3g} Hz" if "band_hz" in r
              else "") + "; correlated with " + ", ".join(
             f"{k} ({v:+.2f})" for k, v in r.get("state_correlation", {}).items()))
+    for r in diag.revisions:
+        con.print("description revised: " + "; ".join(
+            f"{k}: {v['stated']!r} → {v['revised']!r}" for k, v in r["changes"].items()))
     for w in diag.waterfall:
         con.print(f"  {w['step']}: training {w['error_train']:.3f}, validation "
                   f"{w['error_val']:.3f}")

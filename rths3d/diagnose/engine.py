@@ -45,6 +45,8 @@ from ..errors import ConfigError, RecordError
 from ..record import Record
 from .bench import resolve_bench
 from .calibrations import Calibrations
+from .candidates import PREFIX, Revision, is_revision
+from .candidates.screen import revise, screen_revisions
 from .localise import effective_samples, noise_floor
 from .measurement import check_measurement
 from .result import MULTI, NOISE_LIKE, Candidate, RoundResult, effect_configs
@@ -98,12 +100,17 @@ class Diagnosis(RoundStages, Calibrations):
     nthread:
         Threads of the batched replays: a round's screening and refits are cut into one
         batch per thread (:meth:`outputs`).
+    descriptions:
+        The description candidates screened beside the effects (names of
+        :data:`~.candidates.DESCRIPTIONS`; default all, ``()`` none): revisions of what the
+        scene states (the controller's conventions, the payload).
     """
 
     def __init__(self, record: Record, scene: Scene | None = None, *,
                  candidates: Iterable[str] | None = None, block: float = 0.5,
                  refit: int = 8, min_gain: float = 0.01, substeps: int = 1, nthread: int = 2,
-                 progress: Callable[[str], None] | None = None):
+                 progress: Callable[[str], None] | None = None,
+                 descriptions: Iterable[str] | None = None):
         chans = check_measurement(record)
         self.record = record
         self.warnings: list[str] = []
@@ -116,6 +123,12 @@ class Diagnosis(RoundStages, Calibrations):
         if inp.source == "z_cmd":
             self.warnings.append("the record has no pose_cmd.*: replaying z_cmd of the "
                                  f"interface DOFs {list(scene.dofs)} (other DOFs held at 0)")
+        self._inp, self._substeps, self._nthread = inp, substeps, nthread
+        self.descriptions = None if descriptions is None else tuple(descriptions)
+        self.revisions: list[dict[str, Any]] = []
+        """The parts of the description the diagnosis changed, in order: the revision's
+        label and, per dotted scene key, the value stated and the value accepted."""
+        self._revs: dict[str, Revision] = {}
         self.replay = BenchReplay(scene, inp, substeps=substeps, nthread=nthread)
         self.threads = max(1, int(nthread))
         """Threads of a round's batched replays (:meth:`outputs`)."""
@@ -299,7 +312,10 @@ class Diagnosis(RoundStages, Calibrations):
             values: Mapping[str, float] | None = None) -> dict[str, float]:
         """Accept an effect (``label``, start ``value``; ``fix=True`` holds it) — or a
         calibration's fitted ``values`` (held) — refit every free accepted effect jointly,
-        log a waterfall step. Returns the accepted effects."""
+        log a waterfall step; a revision of the description (``scene:…``) goes to
+        :meth:`revise`. Returns the accepted effects."""
+        if is_revision(label):
+            return self.revise(label)
         if label in MULTI or values is not None:
             vals = dict(values) if values is not None else self._multi(label, self.predict())
             if not vals:
@@ -321,16 +337,34 @@ class Diagnosis(RoundStages, Calibrations):
             if fix:
                 self.fixed.add(label)
             step = None
+        self._refit_free()
+        if step is None:
+            p = get_effect(parse_label(label)[0]).param
+            step = f"+ {label} ({p.name} = {self.accepted[label]:.4g} {p.unit})"
+        self._log_step(step)
+        return dict(self.accepted)
+
+    def _refit_free(self) -> None:
         free = {n: v for n, v in self.accepted.items() if n not in self.fixed}
         if free:
             held = {n: v for n, v in self.accepted.items() if n in self.fixed}
             vals, ci = self.fit(free, held)
             self.accepted.update(vals)
             self.cov.update(ci)
-        if step is None:
-            p = get_effect(parse_label(label)[0]).param
-            step = f"+ {label} ({p.name} = {self.accepted[label]:.4g} {p.unit})"
-        self._log_step(step)
+
+    def _screen_revisions(self) -> dict[str, tuple[Candidate, dict[str, np.ndarray]]]:
+        return {lab: (Candidate(lab, "scene", "", k=rev.k, changes=dict(rev.changes),
+                                detail=list(rev.detail)), out)
+                for lab, rev, out in screen_revisions(self)}
+
+    def revise(self, label: str) -> dict[str, float]:
+        """Accept a revision of the description (``scene:<key>=<value>``, as ranked): the
+        scene is rewritten, every free accepted effect refitted on it, a waterfall step
+        logged and the change kept in :attr:`revisions`. Returns the accepted effects."""
+        revise(self, label)
+        self._replays = []
+        self._refit_free()
+        self._log_step(f"~ {label.removeprefix(PREFIX)}")
         return dict(self.accepted)
 
     # ------------------------------------------------------------------ one round
@@ -374,7 +408,9 @@ class Diagnosis(RoundStages, Calibrations):
             if res.proposal is None:
                 break
             p = res.proposal
-            if p.effect in MULTI:
+            if is_revision(p.effect):
+                self.revise(p.effect)
+            elif p.effect in MULTI:
                 self.add(p.effect, values=p.values)
             else:
                 self.add(p.effect, p.value)

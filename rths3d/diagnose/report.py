@@ -271,6 +271,9 @@ def write_report(diag: Diagnosis, result: RoundResult, out_dir: str | Path,
     for w in [*diag.warnings, *(warnings or [])]:
         lines.append(f"- warning: {w}")
     acc = ", ".join(f"{k} = {v:.4g}" for k, v in diag.accepted.items()) or "none"
+    for r in getattr(diag, "revisions", []):
+        lines.append("- description revised: " + "; ".join(
+            f"`{k}`: {v['stated']!r} → {v['revised']!r}" for k, v in r["changes"].items()))
     lines += [f"- accepted effects: {acc}",
               f"- error (noise units, 1 = only noise): training {result.error_train:.3f}, "
               f"validation {result.error_val:.3f}; status **{result.status}**"]

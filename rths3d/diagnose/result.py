@@ -8,6 +8,7 @@ from typing import Any
 
 from ..config import EffectConfig
 from ..effects import get_effect, parse_label
+from .candidates import is_revision
 
 __all__ = ["MULTI", "NOISE_LIKE", "Candidate", "RoundResult", "effect_configs"]
 
@@ -47,11 +48,13 @@ class Candidate:
     channel_share: dict[str, float] = field(default_factory=dict)
     detail: list[str] = field(default_factory=list)
     """Further facts (e.g. the kinematic calibration's identifiability report)."""
+    changes: dict[str, Any] = field(default_factory=dict)
+    """A revision of the description: its changes of the scene (dotted key → value)."""
 
     @property
     def leg(self) -> int:
         """The leg the candidate acts on (−1: none or all)."""
-        if self.effect in MULTI:
+        if self.effect in MULTI or is_revision(self.effect):
             return -1
         return parse_label(self.effect)[1]
 
@@ -59,7 +62,8 @@ class Candidate:
         """JSON-ready dict with the interface keys effect, params, score, error_before,
         error_after."""
         d = asdict(self)
-        d["params"] = {self.param: self.value} if self.effect not in MULTI else dict(self.values)
+        d["params"] = dict(self.changes) if is_revision(self.effect) else \
+            {self.param: self.value} if self.effect not in MULTI else dict(self.values)
         d["ci"] = list(self.ci)
         return d
 

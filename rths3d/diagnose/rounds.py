@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..effects import get_effect
+from .candidates import is_revision
 from .localise import effective_samples, remaining_structure
 from .result import MULTI, NOISE_LIKE, Candidate, RoundResult
 
@@ -49,6 +50,8 @@ class Screen:
     est: dict[str, float]
     gain: dict[str, float]
     deltas: dict[str, np.ndarray]
+    revs: tuple[str, ...] = ()
+    """The revisions of the description screened (each replayed once, in ``outs``)."""
 
 
 class RoundStages:
@@ -106,7 +109,8 @@ class RoundStages:
             probes[lab] = p
             cands[lab] = Candidate(lab, eff.param.name, eff.param.unit)
             trials[lab] = {**self.accepted, lab: p}
-        self.progress(f"screen {len(trials)} candidates")
+        revs = self._screen_revisions()
+        self.progress(f"screen {len(trials)} candidates and {len(revs)} revisions")
         outs = dict(zip(trials, self.outputs(list(trials.values())), strict=True))
         # linear estimate along each probe's sensitivity
         est: dict[str, float] = {}
@@ -145,8 +149,10 @@ class RoundStages:
                 v = off + alpha * (p - off)
             est[lab] = float(np.clip(v, eff.param.lo, eff.param.hi))
             gain[lab] = rd * rd / dd
+        for lab, (cand, out) in revs.items():
+            cands[lab], outs[lab] = cand, out
         return Screen(r0, rvec, e_tr0, e_va0, white, neff, sse0, cands, trials, probes, outs,
-                      est, gain, deltas)
+                      est, gain, deltas, tuple(revs))
 
     def _refit(self, s: Screen
                ) -> tuple[dict[str, dict[str, np.ndarray]], dict[str, dict[str, float]]]:
@@ -188,6 +194,8 @@ class RoundStages:
         for k in cands:
             if k in MULTI and k in trials and k in s.deltas:
                 fin[k], final_sets[k] = outs[k], trials[k]
+        for k in s.revs:  # a revision of the description: replayed once, as screened
+            fin[k], final_sets[k] = outs[k], dict(self.accepted)
         return fin, final_sets
 
     def _rank(self, s: Screen, fin: dict[str, dict[str, np.ndarray]],
@@ -227,7 +235,9 @@ class RoundStages:
             cand.score = neff * math.log(sse0 / sse1) - cand.k * math.log(neff) \
                 if sse1 > 0 and sse0 > 0 else -math.inf
             g = 1.0 - (cand.error_after / cand.error_before) ** 2 if cand.error_before else 0.0
-            if k in MULTI:
+            if is_revision(k):
+                excludes = self._revs[k].excludes_current(self.scene)
+            elif k in MULTI:
                 cand.values = {lab: final_sets[k][lab] for lab in trials[k]
                                if lab not in self.accepted}
                 excludes = True
