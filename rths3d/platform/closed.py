@@ -1,0 +1,292 @@
+"""The closed vRTHS loop with the Stewart platform compiled end to end.
+
+:func:`closed_range` advances a range of interface steps of K tests in one compiled call:
+the linear numerical substructure's step (:func:`~rths3d.numerical._kernels.linear_step`)
+and the command check, the compensator's kernel (fixed schemes with ``compiled()``), the
+platform's step as :meth:`PlatformBatch._advance <rths3d.platform.sim.PlatformBatch._advance>`
+takes it (inverse kinematics, set-point blocks, the servo's hold, ``mj_step``/``mj_forward``
+through MuJoCo's C API, :mod:`rths3d.platform.compiled`), the FTS and sampling, the sensor
+chain and the measurement noise (draws taken before the range, in the order the Python
+driver draws them), the copies of the record signals, the record row and the force
+checks. A step in which the platform stops a test (a command or measured limit, a
+divergence) is taken in full and ends the call; :class:`ClosedRange` then does what needs
+Python for it (the :class:`~rths3d.errors.SafetyStop` and its reason, the monitor's stop)
+with the Python driver's own methods, and the next call goes on. The Python driver
+(:meth:`rths3d.loop._Group._python`) stays the readable reference; both give the same
+record (tests/test_closed_stewart.py).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numba import literal_unroll
+
+from ..effects.blocks import njit, run_chain
+from ..numerical._kernels import linear_step
+from ..safety import check_command, check_measured
+from ..stepping import record_row
+from .compiled import _diverged, physics, read_fts
+from .kernels import (
+    interface_command,
+    leg_setpoints,
+    measured_over,
+    ramp_ctrl,
+    read_interface,
+    take_sample,
+)
+from .ranges import _mj_tuple
+
+__all__ = ["ClosedRange", "closed_ok", "closed_range"]
+
+
+@njit
+def _copy_signals(hist, row):
+    for pair in literal_unroll(hist):
+        src, h = pair
+        for k in range(src.shape[0]):
+            for j in range(src.shape[1]):
+                h[row, k, j] = src[k, j]
+
+
+@njit
+def _halt(P, s, active, row, n, exact):
+    """Tests the monitor stopped at step n rest from now on (load and state zeroed)."""
+    for k in range(active.shape[0]):
+        if not active[k] and (row[k] == n if exact else row[k] >= n):
+            P[:, k, :] = 0.0
+            s[k, :] = 0.0
+
+
+@njit
+def closed_range(n0, n1, w0, k0, num, mon, rec, comp, io, sens, znz, hist, plat):
+    """Steps n0 … n1−1 of the closed loop (module docstring); ``w0``: the step of the noise
+    buffers' first row; ``k0``: the platform's step count at n0. Returns (steps done,
+    code): code 0 ran through (or every test stopped); 1 the last step done stopped a test
+    on the platform's side (``cmd[0]``: by a command limit, its L − L_home and ΔL in
+    ``cmd[1]``, ``cmd[2]``), the driver finishes it."""
+    Ad, Bf, P, s, s_next, Czx, Czv, Cx = num
+    (lim_z, lim_v, lim_x, lim_f, g_win, g_fac, g_n, g_floor, g_pk, g_prev, g_base, g_cnt,
+     active, code, dof, value, row) = mon
+    data, c_zc, c_zm, c_f, c_x = rec
+    cf, cp, cs = comp
+    z, zd, x, u, zm, fm, fraw, poses, idx, cmd_flag, cmd_s, cmd_dl = io
+    sfs, sps, sss, sempty, swb = sens
+    zhas, zfs, zps, zss, zwb = znz
+    geo, ctl, chain, mj, live, fts, smp, rd = plat
+    b, p, hh, home, half, vdt, vmax, fmax = geo
+    (ffg, ffn, Lprev, L, Lsave, sp, y, off, bias, cprev, cnew, zoh, inv_dt, a0, s0, ahead,
+     Lnext) = ctl
+    fs, ps, ss, w, empty = chain
+    ctrl, act, qlive, legs_q, legs_v, legs_f, legf_sens, fquat, Rlive = live
+    start, any_start, tq, tlq, tlf, tR, qm, lqm, lfm, Rm = smp
+    pre, rest = rd
+    has_c, C, bo, sf, st, reading, of, ot = fts
+    t0, dt, h = mj[14], mj[15], mj[16]
+    run = mj[17]
+    K = z.shape[0]
+    zr, zdr, zmr, ur = z.reshape(-1), zd.reshape(-1), zm.reshape(-1), u.reshape(-1)
+    fmr, frr = fm.reshape(-1), fraw.reshape(-1)
+    yr = y.reshape(-1)
+    spr = sp.reshape(-1)
+    for n in range(n0, n1):
+        linear_step(Ad, Bf, P, n, fm, s, s_next, Czx, Czv, Cx, z, zd, x)
+        if check_command(z, zd, x, lim_z, lim_v, lim_x, active, code, dof, value, row, n):
+            _halt(P, s, active, row, n, True)
+            if not active.any():
+                return n - n0, 0
+        cf[0](cp, cs, zr, zdr, zmr, ur)
+        interface_command(u, idx, poses)
+        # the platform's step (PlatformBatch._advance, sample=True)
+        if any_start:
+            take_sample(start, True, qlive, legs_q, legs_f, Rlive, tq, tlq, tlf, tR, sf, st, C,
+                        bo, reading)
+        event = False
+        cmd_flag[0] = False
+        if leg_setpoints(poses, b, p, hh, home, ffg, Lprev, L, sp, half, vdt, run, True,
+                         ffn, Lnext, ahead):
+            # the driver stops those tests (PlatformBatch._command_limits); they are not
+            # stepped from here on
+            event = True
+            cmd_flag[0] = True
+            for k in range(K):
+                for i in range(6):
+                    cmd_s[k, i] = L[k, i] - home[i]
+                    cmd_dl[k, i] = L[k, i] - Lprev[k, i]
+            for k in range(K):
+                if run[k]:
+                    for i in range(6):
+                        if not (abs(cmd_s[k, i]) <= half and abs(cmd_dl[k, i]) <= vdt):
+                            run[k] = False
+        if not empty:
+            run_chain(fs, ps, ss, spr, yr, w)
+        any_run = False
+        for k in range(K):
+            if run[k]:
+                any_run = True
+        if any_run:
+            if empty:
+                ramp_ctrl(sp, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0)
+            else:
+                ramp_ctrl(y, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0)
+            physics(run, mj, cnew, act, s0, cprev)
+            if any_start:
+                take_sample(start, False, qlive, legs_q, legs_f, Rlive, tq, tlq, tlf, tR, sf,
+                            st, C, bo, reading)
+            else:
+                read_fts(fts)
+            if _diverged(run, mj[10], t0 + (k0 + n - n0 + 1) * dt - 0.5 * h):
+                event = True
+            if measured_over(legs_q, legs_v, legs_f, half, vmax, fmax, run):
+                event = True
+        # the transfer system's outputs: achieved DOFs, sensor chain, measurement noise
+        if sempty:
+            read_interface(qm, hh, idx, Rm, of, ot, pre, zm, fm, rest)
+        else:
+            read_interface(qm, hh, idx, Rm, of, ot, pre, zm, fraw, rest)
+            run_chain(sfs, sps, sss, frr, fmr, swb[(n - w0) % swb.shape[0]])
+        if zhas:
+            run_chain(zfs, zps, zss, zmr, zmr, zwb[(n - w0) % zwb.shape[0]])
+        if event:
+            return n + 1 - n0, 1
+        _copy_signals(hist, n + 1)
+        record_row(data, n + 1, z, zm, fm, x, c_zc, c_zm, c_f, c_x)
+        if check_measured(fm, lim_f, g_win, g_fac, g_n, g_floor, g_pk, g_prev, g_base, g_cnt,
+                          active, code, dof, value, row, n):
+            _halt(P, s, active, row, n, False)
+            if not active.any():
+                return n + 1 - n0, 0
+    return n1 - n0, 0
+
+
+def closed_ok(transfer: Any) -> bool:
+    """Whether the compiled closed loop can step this Stewart transfer system: a compensator
+    with a kernel (fixed schemes, per interface DOF), inverse kinematics of the poses (no
+    per-leg hook), no noise in the set-point blocks, no per-test model fields expanded
+    inside a ``mujoco.batch.Batch``, at most one noise block in the sensor chain."""
+    from .ranges import compiled_ok
+
+    sim = transfer.sim
+    if transfer.compensator.compiled() is None or not compiled_ok(sim):
+        return False
+    if sim._ahead:
+        return False
+    for sig in transfer.signals:
+        src = sig.source
+        if src.ndim < 2 or not np.shares_memory(src.reshape(src.shape[0], -1), src):
+            return False
+    return True
+
+
+def _chain_args(chain: Any) -> tuple:
+    return chain.fns, chain.params, chain.states
+
+
+class ClosedRange:
+    """The compiled closed loop of one loop group (``group``: :class:`rths3d.loop._Group`
+    with a linear numerical substructure and a Stewart transfer system): ``self(n0, n1)``
+    steps n0 … n1−1 like the group's Python driver and returns the steps done."""
+
+    def __init__(self, group: Any):
+        self.g = g = group
+        tr = self.tr = g.transfer
+        sim = self.sim = tr.sim
+        K, nd = g.K, g.nd
+        self.num_c = g.num.compiled()
+        cf, cp, cs = tr.compensator.compiled()
+        self.comp = (cf, cp, cs)
+        self.cmd = (np.zeros(1, dtype=np.bool_), np.zeros((K, 6)), np.zeros((K, 6)))
+        self.u = np.zeros((K, nd))
+        self.fraw = tr._f
+        hist = []
+        for sig, hbuf in zip(tr.signals, g.hist, strict=True):
+            src = sig.source
+            hist.append((src.reshape(src.shape[0], -1),
+                         hbuf.reshape(hbuf.shape[0], hbuf.shape[1], -1)))
+        self.hist = tuple(hist)
+        self.rec = (g.data, g.c_zc, g.c_zm, g.c_f, g.c_x)
+
+    def _plat(self) -> tuple:
+        sim = self.sim
+        ch = sim.setpoint_chain
+        chain = (ch.fns, ch.params, ch.states, ch._w, ch.empty)
+        geo = (sim._b, sim._p, sim._hh, sim._home, sim._half, sim._vdt, sim._vmax, sim._fmax)
+        ctl = (sim._ffg, sim._ffn, sim._Lprev, sim._L, np.zeros_like(sim._L), sim._sp,
+               np.zeros_like(sim._sp), sim._off, sim._bias, sim._cprev, sim._cnew, sim._zoh,
+               sim._inv_dt, sim._a0, sim._s0, sim._ahead, sim._Lnext)
+        mj = (*_mj_tuple(sim, True), sim._run)
+        live = (sim._ctrl, sim._act, sim.live_qpos, sim._legs_q, sim._legs_v, sim._legs_f,
+                sim.leg_force_sensor, sim._fts_quat, getattr(sim, "_live_R", sim._fts_R))
+        has_c = sim._fts_C is not None
+        C = sim._fts_C if has_c else np.zeros((1, 6, 6))
+        fts = (has_c, C, sim._fts_b, sim._raw_force, sim._raw_torque, sim.fts_reading,
+               sim._fts_force, sim._fts_torque)
+        meas = (sim.plate_qpos, sim.meas_legs_q, sim.meas_legs_f, sim._fts_R)
+        K = sim.nsim
+        targets = meas if sim._any_start else (np.zeros((K, 7)), np.zeros((K, 6)),
+                                                np.zeros((K, 6)), np.zeros((K, 9)))
+        smp = (sim._start, sim._any_start, *targets, *meas)
+        return (geo, ctl, chain, mj, live, fts, smp, (sim._pre, sim.rest_pose))
+
+    def __call__(self, n0: int, n1: int) -> int:
+        from ..stepping import noise_buffer
+
+        g, tr, sim = self.g, self.tr, self.sim
+        mon = g._monitor_arrays()
+        R = g.K * g.nd
+        steps = n1 - n0
+        sens = (*_chain_args(tr.sensor), tr.sensor.empty, noise_buffer(tr.sensor, steps, R))
+        zn = tr._znoise
+        if zn is not None:
+            zw = np.empty((steps, R))
+            zn.draw(zw)
+            znz = (True, (type(zn).kernel,), (zn.params,), (zn.state,), zw)
+        else:
+            znz = (False, sens[0][:1], sens[1][:1], sens[2][:1], np.zeros((1, R)))
+        io = (g.num.z, g.num.zdot, g.num.x, self.u, tr.z_meas, tr.f_meas, self.fraw,
+              sim.poses, tr.idx, *self.cmd)
+        plat = self._plat()
+        sim._fresh = False
+        n = n0
+        while n < n1:
+            k0 = sim.k
+            done, code = closed_range(n, n1, n0, k0, self.num_c, mon, self.rec, self.comp,
+                                      io, sens, znz, self.hist, plat)
+            tr.compensator.calls += done
+            sim.k = k0 + done
+            n += done
+            if not code:
+                break
+            m = n - 1  # the step that stopped a test on the platform: finish it as Python
+            if self.cmd[0][0]:
+                sim.k -= 1
+                sim._command_limits(self.cmd[1], self.cmd[2])
+                sim.k += 1
+            self._finish(m)
+            if not g.monitor.any_active:
+                break
+        return n - n0
+
+    def _finish(self, n: int) -> None:
+        """Step n after the platform's part: its stops (as PlatformBatch._advance and
+        StewartTransfer.step make them), the signals' row, the record row and the checks."""
+        from ..stepping import post_step
+        from .kernels import measured_over as over
+
+        g, tr, sim, mon = self.g, self.tr, self.sim, self.g.monitor
+        sim._check_status()
+        if over(sim._legs_q, sim._legs_v, sim._legs_f, sim._half, sim._vmax, sim._fmax,
+                sim._run):
+            sim._measured_limits(sim._legs_q, sim._legs_v, sim._legs_f)
+        if sim._any_stopped:
+            tr.stopped[:] = sim.stopped
+            tr.reasons = list(sim.reasons)
+        for k in np.flatnonzero(tr.stopped & mon.active):
+            mon.stop(int(k), tr.reasons[k], n)
+            g.num.halt(int(k))
+        for sig, h in zip(tr.signals, g.hist, strict=True):
+            h[n + 1] = sig.source
+        if post_step(self.rec, n, g.num.z, tr.z_meas, tr.f_meas, g.num.x,
+                     g._monitor_arrays()):
+            g._halt(n)
