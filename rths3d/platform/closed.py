@@ -191,7 +191,7 @@ class ClosedRange:
     def __init__(self, group: Any):
         self.g = g = group
         tr = self.tr = g.transfer
-        sim = self.sim = tr.sim
+        self.sim = tr.sim
         K, nd = g.K, g.nd
         self.num_c = g.num.compiled()
         cf, cp, cs = tr.compensator.compiled()
