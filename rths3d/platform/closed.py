@@ -20,14 +20,25 @@ from __future__ import annotations
 
 from typing import Any
 
+import mujoco
+import numba
 import numpy as np
-from numba import literal_unroll
+from numba import literal_unroll, types
 
 from ..effects.blocks import njit, run_chain
 from ..numerical._kernels import linear_step
 from ..safety import check_command, check_measured
 from ..stepping import record_row
-from .compiled import _diverged, physics, read_fts
+from .compiled import (
+    _diverged,
+    _f64p,
+    _mj_forward,
+    _mj_getState,
+    _mj_step,
+    _voidp,
+    physics,
+    read_fts,
+)
 from .kernels import (
     interface_command,
     leg_setpoints,
@@ -39,6 +50,61 @@ from .kernels import (
 from .ranges import _mj_tuple
 
 __all__ = ["ClosedRange", "closed_ok", "closed_range"]
+
+_VV = types.void(types.voidptr, types.voidptr)
+_check_pos = types.ExternalFunction("mj_checkPos", _VV)
+_check_vel = types.ExternalFunction("mj_checkVel", _VV)
+_check_acc = types.ExternalFunction("mj_checkAcc", _VV)
+_euler = types.ExternalFunction("mj_Euler", _VV)
+_implicit = types.ExternalFunction("mj_implicit", _VV)
+_rk = types.ExternalFunction("mj_RungeKutta", types.void(types.voidptr, types.voidptr,
+                                                         types.int32))
+_forward_skip = types.ExternalFunction("mj_forwardSkip", types.void(
+    types.voidptr, types.voidptr, types.int32, types.int32))
+_VEL = int(mujoco.mjtStage.mjSTAGE_VEL)
+_RK4 = int(mujoco.mjtIntegrator.mjINT_RK4)
+_EULER = int(mujoco.mjtIntegrator.mjINT_EULER)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _step_warm(m, d, integ):
+    """``mj_step`` of a state whose position and velocity stages are already evaluated
+    (the previous step's end-of-step ``mj_forward``; only the control and the servo's
+    set-point changed since): ``mj_step``'s own sequence with its first evaluation from the
+    actuation stage on (the same arithmetic on the same inputs, one evaluation's position
+    and velocity stages cheaper)."""
+    _check_pos(m, d)
+    _check_vel(m, d)
+    _forward_skip(m, d, _VEL, 1)
+    _check_acc(m, d)
+    if integ == _RK4:
+        _rk(m, d, 4)
+    elif integ == _EULER:
+        _euler(m, d)
+    else:
+        _implicit(m, d)
+
+
+@njit
+def physics_warm(run, mj, cnew, act, s0, cprev, integ):
+    """:func:`~rths3d.platform.compiled.physics` of one ``MjData`` per test stepped in
+    place (no batch state rows), the first substep from the warm state (:func:`_step_warm`):
+    the previous step ended with ``mj_forward`` of the same state."""
+    for k in range(run.shape[0]):
+        if run[k]:
+            m = _voidp(mj[0][k])
+            d = _voidp(mj[1][k])
+            _step_warm(m, d, integ)
+            for _ in range(mj[9] - 1):
+                _mj_step(m, d)
+            da = numba.carray(_f64p(mj[8][k]), s0 + 6)
+            for i in range(6):
+                act[k, s0 + i] = cnew[k, i]
+                da[s0 + i] = cnew[k, i]
+                cprev[k, i] = cnew[k, i]
+            _mj_forward(m, d)
+            tb = mj[10]
+            _mj_getState(m, d, _f64p(tb[k:k + 1].ctypes.data), mj[11])
 
 
 @njit
@@ -84,7 +150,7 @@ def closed_range(n0, n1, w0, k0, num, mon, rec, comp, io, sens, znz, hist, plat)
     pre, rest = rd
     has_c, C, bo, sf, st, reading, of, ot = fts
     t0, dt, h = mj[14], mj[15], mj[16]
-    run = mj[17]
+    run, warm = mj[17], mj[18]
     K = z.shape[0]
     zr, zdr, zmr, ur = z.reshape(-1), zd.reshape(-1), zm.reshape(-1), u.reshape(-1)
     fmr, frr = fm.reshape(-1), fraw.reshape(-1)
@@ -130,7 +196,10 @@ def closed_range(n0, n1, w0, k0, num, mon, rec, comp, io, sens, znz, hist, plat)
                 ramp_ctrl(sp, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0)
             else:
                 ramp_ctrl(y, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0)
-            physics(run, mj, cnew, act, s0, cprev)
+            if warm >= 0 and n > n0:
+                physics_warm(run, mj, cnew, act, s0, cprev, warm)
+            else:
+                physics(run, mj, cnew, act, s0, cprev)
             if any_start:
                 take_sample(start, False, qlive, legs_q, legs_f, Rlive, tq, tlq, tlf, tR, sf,
                             st, C, bo, reading)
@@ -215,7 +284,12 @@ class ClosedRange:
         ctl = (sim._ffg, sim._ffn, sim._Lprev, sim._L, np.zeros_like(sim._L), sim._sp,
                np.zeros_like(sim._sp), sim._off, sim._bias, sim._cprev, sim._cnew, sim._zoh,
                sim._inv_dt, sim._a0, sim._s0, sim._ahead, sim._Lnext)
-        mj = (*_mj_tuple(sim, True), sim._run)
+        mt = _mj_tuple(sim, True)
+        # the warm first substep: one MjData per test stepped in place (no state rows)
+        m = sim.model
+        warm = int(m.opt.integrator) if not mt[2] and not (
+            m.opt.enableflags & int(mujoco.mjtEnableBit.mjENBL_FWDINV)) else -1
+        mj = (*mt, sim._run, warm)
         live = (sim._ctrl, sim._act, sim.live_qpos, sim._legs_q, sim._legs_v, sim._legs_f,
                 sim.leg_force_sensor, sim._fts_quat, getattr(sim, "_live_R", sim._fts_R))
         has_c = sim._fts_C is not None
