@@ -18,6 +18,9 @@ record (tests/test_closed_stewart.py).
 
 from __future__ import annotations
 
+import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import mujoco
@@ -29,6 +32,7 @@ from ..effects.blocks import njit, run_chain
 from ..numerical._kernels import linear_step
 from ..safety import check_command, check_measured
 from ..stepping import record_row
+from .backend import _MAXVAL
 from .compiled import (
     _diverged,
     _f64p,
@@ -252,29 +256,41 @@ def _chain_args(chain: Any) -> tuple:
     return chain.fns, chain.params, chain.states
 
 
+def _rows(arrs: tuple, a: int, b: int, n: int) -> tuple:
+    """Rows a·n … b·n of per-row arrays (K·n rows: tests a … b−1)."""
+    return tuple(x[a * n:b * n] for x in arrs)
+
+
 class ClosedRange:
     """The compiled closed loop of one loop group (``group``: :class:`rths3d.loop._Group`
     with a linear numerical substructure and a Stewart transfer system): ``self(n0, n1)``
-    steps n0 … n1−1 like the group's Python driver and returns the steps done."""
+    steps n0 … n1−1 like the group's Python driver and returns the steps done.
 
-    def __init__(self, group: Any):
+    A batch of tests in a ``mujoco.batch.Batch`` is split into chunks of tests (one per
+    core), each chunk's range one call on a thread (the calls release the GIL; every test
+    has its own ``MjData``); a chunk whose step stops a test on the platform is finished by
+    the driver and goes on, independently of the others."""
+
+    def __init__(self, group: Any, chunks: int | None = None):
         self.g = g = group
         tr = self.tr = g.transfer
         self.sim = tr.sim
         K, nd = g.K, g.nd
         self.num_c = g.num.compiled()
-        cf, cp, cs = tr.compensator.compiled()
-        self.comp = (cf, cp, cs)
-        self.cmd = (np.zeros(1, dtype=np.bool_), np.zeros((K, 6)), np.zeros((K, 6)))
+        self.comp = tr.compensator.compiled()
         self.u = np.zeros((K, nd))
         self.fraw = tr._f
-        hist = []
-        for sig, hbuf in zip(tr.signals, g.hist, strict=True):
-            src = sig.source
-            hist.append((src.reshape(src.shape[0], -1),
-                         hbuf.reshape(hbuf.shape[0], hbuf.shape[1], -1)))
-        self.hist = tuple(hist)
-        self.rec = (g.data, g.c_zc, g.c_zm, g.c_f, g.c_x)
+        self.hist = tuple((sig.source.reshape(sig.source.shape[0], -1),
+                           h.reshape(h.shape[0], h.shape[1], -1))
+                          for sig, h in zip(tr.signals, g.hist, strict=True))
+        self.plat = self._plat()
+        rows = bool(self.plat[3][2])
+        c = chunks if chunks is not None else (min(K, os.cpu_count() or 1) if rows else 1)
+        c = max(1, min(int(c), K))
+        bounds = np.linspace(0, K, c + 1).round().astype(int)
+        self.parts = [(int(bounds[i]), int(bounds[i + 1])) for i in range(c)]
+        self.static = [self._static(a, b) for a, b in self.parts]
+        self.pool = ThreadPoolExecutor(c) if c > 1 else None
 
     def _plat(self) -> tuple:
         sim = self.sim
@@ -303,64 +319,142 @@ class ClosedRange:
         smp = (sim._start, sim._any_start, *targets, *meas)
         return (geo, ctl, chain, mj, live, fts, smp, (sim._pre, sim.rest_pose))
 
+    def _static(self, a: int, b: int) -> tuple:
+        """The arguments of tests a … b−1 that do not change between calls (views)."""
+        g, tr, sim = self.g, self.tr, self.sim
+        nd = g.nd
+        sl = slice(a, b)
+        Ad, Bf, P, s, s_next, Czx, Czv, Cx = self.num_c
+        num = (Ad if Ad.shape[0] == 1 else Ad[sl], Bf if Bf.shape[0] == 1 else Bf[sl],
+               P[:, sl], s[sl], s_next[sl], Czx, Czv, Cx)
+        mon = tuple(x[sl] for x in g._monitor_arrays())
+        rec = (g.data[:, sl], g.c_zc, g.c_zm, g.c_f, g.c_x)
+        cf, cp, cs = self.comp
+        comp = (cf, cp[a * nd:b * nd], cs[a * nd:b * nd])
+        cmd = (np.zeros(1, dtype=np.bool_), np.zeros((b - a, 6)), np.zeros((b - a, 6)))
+        io = (g.num.z[sl], g.num.zdot[sl], g.num.x[sl], self.u[sl], tr.z_meas[sl],
+              tr.f_meas[sl], self.fraw[sl], sim.poses[sl], tr.idx, *cmd)
+        hist = tuple((src[sl], h[:, sl]) for src, h in self.hist)
+        geo, ctl, chain, mj, live, fts, smp, rd = self.plat
+        ctl = tuple(x[sl] if i in (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 16) else x
+                    for i, x in enumerate(ctl))
+        fs, ps, ss, w, empty = chain
+        chain = (fs, _rows(ps, a, b, 6), _rows(ss, a, b, 6), w[a * 6:b * 6], empty)
+        mj = tuple(x[sl] if i in (0, 1, 3, 5, 6, 8, 10, 17) else x for i, x in enumerate(mj))
+        live = tuple(x[sl] for x in live)
+        fts = (fts[0], fts[1][sl] if fts[0] else fts[1], *(x[sl] for x in fts[2:]))
+        smp = (smp[0][sl], smp[1], *(x[sl] for x in smp[2:]))
+        rd = tuple(x[sl] for x in rd)
+        sen = tr.sensor
+        sens = (sen.fns, _rows(sen.params, a, b, nd), _rows(sen.states, a, b, nd), sen.empty)
+        zn = tr._znoise
+        znz = (True, (type(zn).kernel,), (zn.params[a * nd:b * nd],),
+               (zn.state[a * nd:b * nd],)) if zn is not None else \
+            (False, sens[0][:1], sens[1][:1], sens[2][:1])
+        return (num, mon, rec, comp, io, sens, znz, hist,
+                (geo, ctl, chain, mj, live, fts, smp, rd), cmd)
+
     def __call__(self, n0: int, n1: int) -> int:
         from ..stepping import noise_buffer
 
         g, tr, sim = self.g, self.tr, self.sim
-        mon = g._monitor_arrays()
         R = g.K * g.nd
         steps = n1 - n0
-        sens = (*_chain_args(tr.sensor), tr.sensor.empty, noise_buffer(tr.sensor, steps, R))
+        sw = noise_buffer(tr.sensor, steps, R)
         zn = tr._znoise
+        zw = np.zeros((1, R))
         if zn is not None:
             zw = np.empty((steps, R))
             zn.draw(zw)
-            znz = (True, (type(zn).kernel,), (zn.params,), (zn.state,), zw)
-        else:
-            znz = (False, sens[0][:1], sens[1][:1], sens[2][:1], np.zeros((1, R)))
-        io = (g.num.z, g.num.zdot, g.num.x, self.u, tr.z_meas, tr.f_meas, self.fraw,
-              sim.poses, tr.idx, *self.cmd)
-        plat = self._plat()
+        nd = g.nd
+        calls = []
+        for (a, b), st in zip(self.parts, self.static, strict=True):
+            num, mon, rec, comp, io, sens, znz, hist, plat, cmd = st
+            sens = (*sens, np.ascontiguousarray(sw[:, a * nd:b * nd]))
+            znz = (*znz, np.ascontiguousarray(zw[:, a * nd:b * nd]))
+            calls.append([n0, (num, mon, rec, comp, io, sens, znz, hist, plat), cmd, a, b])
         sim._fresh = False
-        n = n0
-        while n < n1:
-            k0 = sim.k
-            done, code = closed_range(n, n1, n0, k0, self.num_c, mon, self.rec, self.comp,
-                                      io, sens, znz, self.hist, plat)
-            tr.compensator.calls += done
-            sim.k = k0 + done
-            n += done
-            if not code:
-                break
-            m = n - 1  # the step that stopped a test on the platform: finish it as Python
-            if self.cmd[0][0]:
-                sim.k -= 1
-                sim._command_limits(self.cmd[1], self.cmd[2])
-                sim.k += 1
-            self._finish(m)
-            if not g.monitor.any_active:
-                break
-        return n - n0
+        k0 = sim.k
+        pos = [n0] * len(calls)
+        todo = list(range(len(calls)))
+        while todo:
+            def one(i: int) -> tuple[int, int]:
+                n = pos[i]
+                return closed_range(n, n1, n0, k0 + n - n0, *calls[i][1])
 
-    def _finish(self, n: int) -> None:
-        """Step n after the platform's part: its stops (as PlatformBatch._advance and
-        StewartTransfer.step make them), the signals' row, the record row and the checks."""
+            res = list(self.pool.map(one, todo)) if self.pool is not None and len(todo) > 1 \
+                else [one(i) for i in todo]
+            nxt = []
+            for i, (done, code) in zip(todo, res, strict=True):
+                pos[i] += done
+                if code:  # the step that stopped a test on the platform: finish it
+                    self._finish(pos[i] - 1, k0 + pos[i] - n0, *calls[i][2:])
+                a, b = calls[i][3], calls[i][4]
+                if pos[i] < n1 and g.monitor.active[a:b].any():
+                    nxt.append(i)
+            todo = nxt
+        done = max(pos) - n0
+        tr.compensator.calls += done
+        sim.k = k0 + done
+        return done
+
+    def _finish(self, n: int, k: int, cmd: tuple, a: int, b: int) -> None:
+        """Step n of tests a … b−1 after the platform's part, as PlatformBatch._advance
+        and StewartTransfer.step finish it (``k``: the platform's step count after it): its
+        stops, the signals' row, the record row and the checks."""
         from ..stepping import post_step
         from .kernels import measured_over as over
 
         g, tr, sim, mon = self.g, self.tr, self.sim, self.g.monitor
-        sim._check_status()
-        if over(sim._legs_q, sim._legs_v, sim._legs_f, sim._half, sim._vmax, sim._fmax,
-                sim._run):
-            sim._measured_limits(sim._legs_q, sim._legs_v, sim._legs_f)
+        sl = slice(a, b)
+        whole = a == 0 and b == g.K
+        keep = sim.k
+        if cmd[0][0]:
+            sim.k = k - 1
+            s, dl = np.zeros((g.K, 6)), np.zeros((g.K, 6))
+            s[sl], dl[sl] = cmd[1], cmd[2]
+            sim._command_limits(s, dl)
+        sim.k = k
+        if whole:
+            sim._check_status()
+        else:
+            self._diverged(sl)
+        q, v, f = sim._legs_q, sim._legs_v, sim._legs_f
+        if over(q[sl], v[sl], f[sl], sim._half, sim._vmax, sim._fmax, sim._run[sl]):
+            if whole:
+                sim._measured_limits(q, v, f)
+            else:
+                mask = np.zeros((g.K, 1))
+                mask[sl] = 1.0
+                sim._measured_limits(q * mask, v * mask, f * mask)
+        sim.k = keep
         if sim._any_stopped:
             tr.stopped[:] = sim.stopped
             tr.reasons = list(sim.reasons)
-        for k in np.flatnonzero(tr.stopped & mon.active):
-            mon.stop(int(k), tr.reasons[k], n)
-            g.num.halt(int(k))
+        for j in np.flatnonzero(tr.stopped[sl] & mon.active[sl]):
+            kk = a + int(j)
+            mon.stop(kk, tr.reasons[kk], n)
+            g.num.halt(kk)
         for sig, h in zip(tr.signals, g.hist, strict=True):
-            h[n + 1] = sig.source
-        if post_step(self.rec, n, g.num.z, tr.z_meas, tr.f_meas, g.num.x,
-                     g._monitor_arrays()):
+            h[n + 1, sl] = sig.source[sl]
+        st = self.static[[p[0] for p in self.parts].index(a)]
+        if post_step(st[2], n, g.num.z[sl], tr.z_meas[sl], tr.f_meas[sl], g.num.x[sl],
+                     st[1]):
             g._halt(n)
+
+    def _diverged(self, sl: slice) -> None:
+        """PlatformBatch._check_status for tests ``sl`` only (the others may be at other
+        steps)."""
+        from ..errors import SafetyStop
+
+        sim = self.sim
+        expected = sim._t0 + sim.k * sim.config.dt - 0.5 * sim.config.timestep
+        failed = sim.batch.failed(expected)
+        if failed is None:
+            return
+        for j in np.flatnonzero(failed[sl] & ~sim.stopped[sl]):
+            k = sl.start + int(j)
+            msg = sim.batch.error(k).strip()
+            what = msg or "MuJoCo bad acceleration, state was reset"
+            sim._freeze(k, SafetyStop(f"divergence ({what}) |qacc|", math.inf, _MAXVAL,
+                                      sim.t, test=k))
