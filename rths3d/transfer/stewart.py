@@ -57,8 +57,9 @@ class StewartTransfer:
     leg encoders, m), ``leg_force.<i>`` (actuator forces tared at rest, N) and ``fts.<fx…tz>``
     (the raw six-axis reading in the sensor frame, zeroed unloaded: it carries the payload's
     weight, N and N·m). With the ``sensor_noise`` effect every measured channel carries
-    seeded white noise (``z_meas`` and ``f_meas`` inside the loop). MuJoCo runs from Python:
-    no compiled kernel.
+    seeded white noise (``z_meas`` and ``f_meas`` inside the loop). With a linear numerical
+    substructure and a fixed compensator the loop runs whole ranges of steps compiled
+    (:meth:`closed_range`, :mod:`rths3d.platform.closed`); otherwise from Python.
     """
 
     kind: ClassVar[str] = "stewart"
