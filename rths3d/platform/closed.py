@@ -256,6 +256,16 @@ def _chain_args(chain: Any) -> tuple:
     return chain.fns, chain.params, chain.states
 
 
+_POOL: list[ThreadPoolExecutor] = []
+
+
+def _pool() -> ThreadPoolExecutor:
+    """The threads that step the chunks of a batch (one per core, shared by every batch)."""
+    if not _POOL:
+        _POOL.append(ThreadPoolExecutor(os.cpu_count() or 1, thread_name_prefix="closed"))
+    return _POOL[0]
+
+
 def _rows(arrs: tuple, a: int, b: int, n: int) -> tuple:
     """Rows a·n … b·n of per-row arrays (K·n rows: tests a … b−1)."""
     return tuple(x[a * n:b * n] for x in arrs)
@@ -290,7 +300,7 @@ class ClosedRange:
         bounds = np.linspace(0, K, c + 1).round().astype(int)
         self.parts = [(int(bounds[i]), int(bounds[i + 1])) for i in range(c)]
         self.static = [self._static(a, b) for a, b in self.parts]
-        self.pool = ThreadPoolExecutor(c) if c > 1 else None
+        self.pool = _pool() if c > 1 else None
 
     def _plat(self) -> tuple:
         sim = self.sim
