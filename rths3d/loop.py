@@ -190,7 +190,10 @@ class _Group:
         self.transfer.reset()
         self.monitor.reset()
         num_c, tr_c = self.num.compiled(), self.transfer.compiled()
-        path = "compiled" if num_c is not None and tr_c is not None else "python"
+        # a transfer system without a 1-D kernel may step its own compiled ranges
+        make = getattr(self.transfer, "closed_range", None)
+        closed = make(self) if num_c is not None and tr_c is None and make else None
+        path = "compiled" if num_c is not None and (tr_c is not None or closed) else "python"
         report = progress if callable(progress) else None
         every = control.every if control is not None else (500 if progress else self.N)
         fid = self.fidelity if self.fidelity.enabled else None
@@ -206,7 +209,8 @@ class _Group:
                 # with a control: back to Python after every step n with n % every == 0
                 n1 = min(self.N, -(-n // every) * every + 1 if control is not None
                          else n + every)
-                done = self._compiled(n, n1, num_c, tr_c) if path == "compiled" else \
+                done = closed(n, n1) if closed is not None else \
+                    self._compiled(n, n1, num_c, tr_c) if path == "compiled" else \
                     self._python(n, n1)
                 pbar.update(done)
                 if report is not None:

@@ -57,8 +57,9 @@ class StewartTransfer:
     leg encoders, m), ``leg_force.<i>`` (actuator forces tared at rest, N) and ``fts.<fx…tz>``
     (the raw six-axis reading in the sensor frame, zeroed unloaded: it carries the payload's
     weight, N and N·m). With the ``sensor_noise`` effect every measured channel carries
-    seeded white noise (``z_meas`` and ``f_meas`` inside the loop). MuJoCo runs from Python:
-    no compiled kernel.
+    seeded white noise (``z_meas`` and ``f_meas`` inside the loop). With a linear numerical
+    substructure and a fixed compensator the loop runs whole ranges of steps compiled
+    (:meth:`closed_range`, :mod:`rths3d.platform.closed`); otherwise from Python.
     """
 
     kind: ClassVar[str] = "stewart"
@@ -193,5 +194,20 @@ class StewartTransfer:
                 self.reasons[k] = comp.reasons[k]
 
     def compiled(self) -> None:
-        """MuJoCo runs from Python: the loop steps this system from Python."""
+        """No kernel of the 1-D signature: the loop steps this system through
+        :meth:`closed_range` (compiled) or from Python."""
         return None
+
+    closed_loop: ClassVar[bool] = True
+    """Whether the loop may step this system in compiled ranges (:meth:`closed_range`);
+    False: always the Python driver (the reference)."""
+
+    def closed_range(self, group: Any) -> Any:
+        """The compiled closed loop of a loop group (:class:`rths3d.platform.closed.
+        ClosedRange`), or None when it cannot run it (an adaptive compensator, per-leg
+        compensation, set-point noise: the Python driver steps it)."""
+        from ..platform.closed import ClosedRange, closed_ok
+
+        if not self.closed_loop or not closed_ok(self):
+            return None
+        return ClosedRange(group)

@@ -1,0 +1,470 @@
+"""The closed vRTHS loop with the Stewart platform compiled end to end.
+
+:func:`closed_range` advances a range of interface steps of K tests in one compiled call:
+the linear numerical substructure's step (:func:`~rths3d.numerical._kernels.linear_step`)
+and the command check, the compensator's kernel (fixed schemes with ``compiled()``), the
+platform's step as :meth:`PlatformBatch._advance <rths3d.platform.sim.PlatformBatch._advance>`
+takes it (inverse kinematics, set-point blocks, the servo's hold, ``mj_step``/``mj_forward``
+through MuJoCo's C API, :mod:`rths3d.platform.compiled`), the FTS and sampling, the sensor
+chain and the measurement noise (draws taken before the range, in the order the Python
+driver draws them), the copies of the record signals, the record row and the force
+checks. A step in which the platform stops a test (a command or measured limit, a
+divergence) is taken in full and ends the call; :class:`ClosedRange` then does what needs
+Python for it (the :class:`~rths3d.errors.SafetyStop` and its reason, the monitor's stop)
+with the Python driver's own methods, and the next call goes on. The Python driver
+(:meth:`rths3d.loop._Group._python`) stays the readable reference; both give the same
+record (tests/test_closed_stewart.py).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+import mujoco
+import numba
+import numpy as np
+from numba import literal_unroll, types
+
+from ..effects.blocks import njit, run_chain
+from ..numerical._kernels import linear_step
+from ..safety import check_command, check_measured
+from ..stepping import record_row
+from .backend import _MAXVAL
+from .compiled import (
+    _diverged,
+    _f64p,
+    _mj_forward,
+    _mj_getState,
+    _mj_step,
+    _voidp,
+    physics,
+    read_fts,
+)
+from .kernels import (
+    interface_command,
+    leg_setpoints,
+    measured_over,
+    ramp_ctrl,
+    read_interface,
+    take_sample,
+)
+from .ranges import _mj_tuple
+
+__all__ = ["ClosedRange", "closed_ok", "closed_range"]
+
+_VV = types.void(types.voidptr, types.voidptr)
+_check_pos = types.ExternalFunction("mj_checkPos", _VV)
+_check_vel = types.ExternalFunction("mj_checkVel", _VV)
+_check_acc = types.ExternalFunction("mj_checkAcc", _VV)
+_euler = types.ExternalFunction("mj_Euler", _VV)
+_implicit = types.ExternalFunction("mj_implicit", _VV)
+_rk = types.ExternalFunction("mj_RungeKutta", types.void(types.voidptr, types.voidptr,
+                                                         types.int32))
+_forward_skip = types.ExternalFunction("mj_forwardSkip", types.void(
+    types.voidptr, types.voidptr, types.int32, types.int32))
+_VEL = int(mujoco.mjtStage.mjSTAGE_VEL)
+_RK4 = int(mujoco.mjtIntegrator.mjINT_RK4)
+_EULER = int(mujoco.mjtIntegrator.mjINT_EULER)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _step_warm(m, d, integ):
+    """``mj_step`` of a state whose position and velocity stages are already evaluated
+    (the previous step's end-of-step ``mj_forward``; only the control and the servo's
+    set-point changed since): ``mj_step``'s own sequence with its first evaluation from the
+    actuation stage on (the same arithmetic on the same inputs, one evaluation's position
+    and velocity stages cheaper)."""
+    _check_pos(m, d)
+    _check_vel(m, d)
+    _forward_skip(m, d, _VEL, 1)
+    _check_acc(m, d)
+    if integ == _RK4:
+        _rk(m, d, 4)
+    elif integ == _EULER:
+        _euler(m, d)
+    else:
+        _implicit(m, d)
+
+
+@njit
+def physics_warm(run, mj, cnew, act, s0, cprev, integ):
+    """:func:`~rths3d.platform.compiled.physics` of one ``MjData`` per test stepped in
+    place (no batch state rows), the first substep from the warm state (:func:`_step_warm`):
+    the previous step ended with ``mj_forward`` of the same state."""
+    for k in range(run.shape[0]):
+        if run[k]:
+            m = _voidp(mj[0][k])
+            d = _voidp(mj[1][k])
+            _step_warm(m, d, integ)
+            for _ in range(mj[9] - 1):
+                _mj_step(m, d)
+            da = numba.carray(_f64p(mj[8][k]), s0 + 6)
+            for i in range(6):
+                act[k, s0 + i] = cnew[k, i]
+                da[s0 + i] = cnew[k, i]
+                cprev[k, i] = cnew[k, i]
+            _mj_forward(m, d)
+            tb = mj[10]
+            _mj_getState(m, d, _f64p(tb[k:k + 1].ctypes.data), mj[11])
+
+
+@njit
+def _copy_signals(hist, row):
+    for pair in literal_unroll(hist):
+        src, h = pair
+        for k in range(src.shape[0]):
+            for j in range(src.shape[1]):
+                h[row, k, j] = src[k, j]
+
+
+@njit
+def _halt(P, s, active, row, n, exact):
+    """Tests the monitor stopped at step n rest from now on (load and state zeroed)."""
+    for k in range(active.shape[0]):
+        if not active[k] and (row[k] == n if exact else row[k] >= n):
+            P[:, k, :] = 0.0
+            s[k, :] = 0.0
+
+
+@njit
+def closed_range(n0, n1, w0, k0, num, mon, rec, comp, io, sens, znz, hist, plat):
+    """Steps n0 … n1−1 of the closed loop (module docstring); ``w0``: the step of the noise
+    buffers' first row; ``k0``: the platform's step count at n0. Returns (steps done,
+    code): code 0 ran through (or every test stopped); 1 the last step done stopped a test
+    on the platform's side (``cmd[0]``: by a command limit, its L − L_home and ΔL in
+    ``cmd[1]``, ``cmd[2]``), the driver finishes it."""
+    Ad, Bf, P, s, s_next, Czx, Czv, Cx = num
+    (lim_z, lim_v, lim_x, lim_f, g_win, g_fac, g_n, g_floor, g_pk, g_prev, g_base, g_cnt,
+     active, code, dof, value, row) = mon
+    data, c_zc, c_zm, c_f, c_x = rec
+    cf, cp, cs = comp
+    z, zd, x, u, zm, fm, fraw, poses, idx, cmd_flag, cmd_s, cmd_dl = io
+    sfs, sps, sss, sempty, swb = sens
+    zhas, zfs, zps, zss, zwb = znz
+    geo, ctl, chain, mj, live, fts, smp, rd = plat
+    b, p, hh, home, half, vdt, vmax, fmax = geo
+    (ffg, ffn, Lprev, L, Lsave, sp, y, off, bias, cprev, cnew, zoh, inv_dt, a0, s0, ahead,
+     Lnext) = ctl
+    fs, ps, ss, w, empty = chain
+    ctrl, act, qlive, legs_q, legs_v, legs_f, legf_sens, fquat, Rlive = live
+    start, any_start, tq, tlq, tlf, tR, qm, lqm, lfm, Rm = smp
+    pre, rest = rd
+    has_c, C, bo, sf, st, reading, of, ot = fts
+    t0, dt, h = mj[14], mj[15], mj[16]
+    run, warm = mj[17], mj[18]
+    K = z.shape[0]
+    zr, zdr, zmr, ur = z.reshape(-1), zd.reshape(-1), zm.reshape(-1), u.reshape(-1)
+    fmr, frr = fm.reshape(-1), fraw.reshape(-1)
+    yr = y.reshape(-1)
+    spr = sp.reshape(-1)
+    for n in range(n0, n1):
+        linear_step(Ad, Bf, P, n, fm, s, s_next, Czx, Czv, Cx, z, zd, x)
+        if check_command(z, zd, x, lim_z, lim_v, lim_x, active, code, dof, value, row, n):
+            _halt(P, s, active, row, n, True)
+            if not active.any():
+                return n - n0, 0
+        cf[0](cp, cs, zr, zdr, zmr, ur)
+        interface_command(u, idx, poses)
+        # the platform's step (PlatformBatch._advance, sample=True)
+        if any_start:
+            take_sample(start, True, qlive, legs_q, legs_f, Rlive, tq, tlq, tlf, tR, sf, st, C,
+                        bo, reading)
+        event = False
+        cmd_flag[0] = False
+        if leg_setpoints(poses, b, p, hh, home, ffg, Lprev, L, sp, half, vdt, run, True,
+                         ffn, Lnext, ahead):
+            # the driver stops those tests (PlatformBatch._command_limits); they are not
+            # stepped from here on
+            event = True
+            cmd_flag[0] = True
+            for k in range(K):
+                for i in range(6):
+                    cmd_s[k, i] = L[k, i] - home[i]
+                    cmd_dl[k, i] = L[k, i] - Lprev[k, i]
+            for k in range(K):
+                if run[k]:
+                    for i in range(6):
+                        if not (abs(cmd_s[k, i]) <= half and abs(cmd_dl[k, i]) <= vdt):
+                            run[k] = False
+        if not empty:
+            run_chain(fs, ps, ss, spr, yr, w)
+        any_run = False
+        for k in range(K):
+            if run[k]:
+                any_run = True
+        if any_run:
+            if empty:
+                ramp_ctrl(sp, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0)
+            else:
+                ramp_ctrl(y, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0)
+            if warm >= 0 and n > n0:
+                physics_warm(run, mj, cnew, act, s0, cprev, warm)
+            else:
+                physics(run, mj, cnew, act, s0, cprev)
+            if any_start:
+                take_sample(start, False, qlive, legs_q, legs_f, Rlive, tq, tlq, tlf, tR, sf,
+                            st, C, bo, reading)
+            else:
+                read_fts(fts)
+            if _diverged(run, mj[10], t0 + (k0 + n - n0 + 1) * dt - 0.5 * h):
+                event = True
+            if measured_over(legs_q, legs_v, legs_f, half, vmax, fmax, run):
+                event = True
+        # the transfer system's outputs: achieved DOFs, sensor chain, measurement noise
+        if sempty:
+            read_interface(qm, hh, idx, Rm, of, ot, pre, zm, fm, rest)
+        else:
+            read_interface(qm, hh, idx, Rm, of, ot, pre, zm, fraw, rest)
+            run_chain(sfs, sps, sss, frr, fmr, swb[(n - w0) % swb.shape[0]])
+        if zhas:
+            run_chain(zfs, zps, zss, zmr, zmr, zwb[(n - w0) % zwb.shape[0]])
+        if event:
+            return n + 1 - n0, 1
+        _copy_signals(hist, n + 1)
+        record_row(data, n + 1, z, zm, fm, x, c_zc, c_zm, c_f, c_x)
+        if check_measured(fm, lim_f, g_win, g_fac, g_n, g_floor, g_pk, g_prev, g_base, g_cnt,
+                          active, code, dof, value, row, n):
+            _halt(P, s, active, row, n, False)
+            if not active.any():
+                return n + 1 - n0, 0
+    return n1 - n0, 0
+
+
+def closed_ok(transfer: Any) -> bool:
+    """Whether the compiled closed loop can step this Stewart transfer system: a compensator
+    with a kernel (fixed schemes, per interface DOF), inverse kinematics of the poses (no
+    per-leg hook), no noise in the set-point blocks, no per-test model fields expanded
+    inside a ``mujoco.batch.Batch``, at most one noise block in the sensor chain."""
+    from .ranges import compiled_ok
+
+    sim = transfer.sim
+    if transfer.compensator.compiled() is None or not compiled_ok(sim):
+        return False
+    if sim._ahead:
+        return False
+    for sig in transfer.signals:
+        src = sig.source
+        if src.ndim < 2 or not np.shares_memory(src.reshape(src.shape[0], -1), src):
+            return False
+    return True
+
+
+def _chain_args(chain: Any) -> tuple:
+    return chain.fns, chain.params, chain.states
+
+
+_POOL: list[ThreadPoolExecutor] = []
+
+
+def _pool() -> ThreadPoolExecutor:
+    """The threads that step the chunks of a batch (one per core, shared by every batch)."""
+    if not _POOL:
+        _POOL.append(ThreadPoolExecutor(os.cpu_count() or 1, thread_name_prefix="closed"))
+    return _POOL[0]
+
+
+def _rows(arrs: tuple, a: int, b: int, n: int) -> tuple:
+    """Rows a·n … b·n of per-row arrays (K·n rows: tests a … b−1)."""
+    return tuple(x[a * n:b * n] for x in arrs)
+
+
+class ClosedRange:
+    """The compiled closed loop of one loop group (``group``: :class:`rths3d.loop._Group`
+    with a linear numerical substructure and a Stewart transfer system): ``self(n0, n1)``
+    steps n0 … n1−1 like the group's Python driver and returns the steps done.
+
+    A batch of tests in a ``mujoco.batch.Batch`` is split into chunks of tests (one per
+    core), each chunk's range one call on a thread (the calls release the GIL; every test
+    has its own ``MjData``); a chunk whose step stops a test on the platform is finished by
+    the driver and goes on, independently of the others."""
+
+    def __init__(self, group: Any, chunks: int | None = None):
+        self.g = g = group
+        tr = self.tr = g.transfer
+        self.sim = tr.sim
+        K, nd = g.K, g.nd
+        self.num_c = g.num.compiled()
+        self.comp = tr.compensator.compiled()
+        self.u = np.zeros((K, nd))
+        self.fraw = tr._f
+        self.hist = tuple((sig.source.reshape(sig.source.shape[0], -1),
+                           h.reshape(h.shape[0], h.shape[1], -1))
+                          for sig, h in zip(tr.signals, g.hist, strict=True))
+        self.plat = self._plat()
+        rows = bool(self.plat[3][2])
+        c = chunks if chunks is not None else (min(K, os.cpu_count() or 1) if rows else 1)
+        c = max(1, min(int(c), K))
+        bounds = np.linspace(0, K, c + 1).round().astype(int)
+        self.parts = [(int(bounds[i]), int(bounds[i + 1])) for i in range(c)]
+        self.static = [self._static(a, b) for a, b in self.parts]
+        self.pool = _pool() if c > 1 else None
+
+    def _plat(self) -> tuple:
+        sim = self.sim
+        ch = sim.setpoint_chain
+        chain = (ch.fns, ch.params, ch.states, ch._w, ch.empty)
+        geo = (sim._b, sim._p, sim._hh, sim._home, sim._half, sim._vdt, sim._vmax, sim._fmax)
+        ctl = (sim._ffg, sim._ffn, sim._Lprev, sim._L, np.zeros_like(sim._L), sim._sp,
+               np.zeros_like(sim._sp), sim._off, sim._bias, sim._cprev, sim._cnew, sim._zoh,
+               sim._inv_dt, sim._a0, sim._s0, sim._ahead, sim._Lnext)
+        mt = _mj_tuple(sim, True)
+        # the warm first substep: one MjData per test stepped in place (no state rows)
+        m = sim.model
+        warm = int(m.opt.integrator) if not mt[2] and not (
+            m.opt.enableflags & int(mujoco.mjtEnableBit.mjENBL_FWDINV)) else -1
+        mj = (*mt, sim._run, warm)
+        live = (sim._ctrl, sim._act, sim.live_qpos, sim._legs_q, sim._legs_v, sim._legs_f,
+                sim.leg_force_sensor, sim._fts_quat, getattr(sim, "_live_R", sim._fts_R))
+        has_c = sim._fts_C is not None
+        C = sim._fts_C if has_c else np.zeros((1, 6, 6))
+        fts = (has_c, C, sim._fts_b, sim._raw_force, sim._raw_torque, sim.fts_reading,
+               sim._fts_force, sim._fts_torque)
+        meas = (sim.plate_qpos, sim.meas_legs_q, sim.meas_legs_f, sim._fts_R)
+        K = sim.nsim
+        targets = meas if sim._any_start else (np.zeros((K, 7)), np.zeros((K, 6)),
+                                                np.zeros((K, 6)), np.zeros((K, 9)))
+        smp = (sim._start, sim._any_start, *targets, *meas)
+        return (geo, ctl, chain, mj, live, fts, smp, (sim._pre, sim.rest_pose))
+
+    def _static(self, a: int, b: int) -> tuple:
+        """The arguments of tests a … b−1 that do not change between calls (views)."""
+        g, tr, sim = self.g, self.tr, self.sim
+        nd = g.nd
+        sl = slice(a, b)
+        Ad, Bf, P, s, s_next, Czx, Czv, Cx = self.num_c
+        num = (Ad if Ad.shape[0] == 1 else Ad[sl], Bf if Bf.shape[0] == 1 else Bf[sl],
+               P[:, sl], s[sl], s_next[sl], Czx, Czv, Cx)
+        mon = tuple(x[sl] for x in g._monitor_arrays())
+        rec = (g.data[:, sl], g.c_zc, g.c_zm, g.c_f, g.c_x)
+        cf, cp, cs = self.comp
+        comp = (cf, cp[a * nd:b * nd], cs[a * nd:b * nd])
+        cmd = (np.zeros(1, dtype=np.bool_), np.zeros((b - a, 6)), np.zeros((b - a, 6)))
+        io = (g.num.z[sl], g.num.zdot[sl], g.num.x[sl], self.u[sl], tr.z_meas[sl],
+              tr.f_meas[sl], self.fraw[sl], sim.poses[sl], tr.idx, *cmd)
+        hist = tuple((src[sl], h[:, sl]) for src, h in self.hist)
+        geo, ctl, chain, mj, live, fts, smp, rd = self.plat
+        ctl = tuple(x[sl] if i in (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 16) else x
+                    for i, x in enumerate(ctl))
+        fs, ps, ss, w, empty = chain
+        chain = (fs, _rows(ps, a, b, 6), _rows(ss, a, b, 6), w[a * 6:b * 6], empty)
+        mj = tuple(x[sl] if i in (0, 1, 3, 5, 6, 8, 10, 17) else x for i, x in enumerate(mj))
+        live = tuple(x[sl] for x in live)
+        fts = (fts[0], fts[1][sl] if fts[0] else fts[1], *(x[sl] for x in fts[2:]))
+        smp = (smp[0][sl], smp[1], *(x[sl] for x in smp[2:]))
+        rd = tuple(x[sl] for x in rd)
+        sen = tr.sensor
+        sens = (sen.fns, _rows(sen.params, a, b, nd), _rows(sen.states, a, b, nd), sen.empty)
+        zn = tr._znoise
+        znz = (True, (type(zn).kernel,), (zn.params[a * nd:b * nd],),
+               (zn.state[a * nd:b * nd],)) if zn is not None else \
+            (False, sens[0][:1], sens[1][:1], sens[2][:1])
+        return (num, mon, rec, comp, io, sens, znz, hist,
+                (geo, ctl, chain, mj, live, fts, smp, rd), cmd)
+
+    def __call__(self, n0: int, n1: int) -> int:
+        from ..stepping import noise_buffer
+
+        g, tr, sim = self.g, self.tr, self.sim
+        R = g.K * g.nd
+        steps = n1 - n0
+        sw = noise_buffer(tr.sensor, steps, R)
+        zn = tr._znoise
+        zw = np.zeros((1, R))
+        if zn is not None:
+            zw = np.empty((steps, R))
+            zn.draw(zw)
+        nd = g.nd
+        calls = []
+        for (a, b), st in zip(self.parts, self.static, strict=True):
+            num, mon, rec, comp, io, sens, znz, hist, plat, cmd = st
+            sens = (*sens, np.ascontiguousarray(sw[:, a * nd:b * nd]))
+            znz = (*znz, np.ascontiguousarray(zw[:, a * nd:b * nd]))
+            calls.append([n0, (num, mon, rec, comp, io, sens, znz, hist, plat), cmd, a, b])
+        sim._fresh = False
+        k0 = sim.k
+        pos = [n0] * len(calls)
+        todo = list(range(len(calls)))
+        while todo:
+            def one(i: int) -> tuple[int, int]:
+                n = pos[i]
+                return closed_range(n, n1, n0, k0 + n - n0, *calls[i][1])
+
+            res = list(self.pool.map(one, todo)) if self.pool is not None and len(todo) > 1 \
+                else [one(i) for i in todo]
+            nxt = []
+            for i, (done, code) in zip(todo, res, strict=True):
+                pos[i] += done
+                if code:  # the step that stopped a test on the platform: finish it
+                    self._finish(pos[i] - 1, k0 + pos[i] - n0, *calls[i][2:])
+                a, b = calls[i][3], calls[i][4]
+                if pos[i] < n1 and g.monitor.active[a:b].any():
+                    nxt.append(i)
+            todo = nxt
+        done = max(pos) - n0
+        tr.compensator.calls += done
+        sim.k = k0 + done
+        return done
+
+    def _finish(self, n: int, k: int, cmd: tuple, a: int, b: int) -> None:
+        """Step n of tests a … b−1 after the platform's part, as PlatformBatch._advance
+        and StewartTransfer.step finish it (``k``: the platform's step count after it): its
+        stops, the signals' row, the record row and the checks."""
+        from ..stepping import post_step
+        from .kernels import measured_over as over
+
+        g, tr, sim, mon = self.g, self.tr, self.sim, self.g.monitor
+        sl = slice(a, b)
+        whole = a == 0 and b == g.K
+        keep = sim.k
+        if cmd[0][0]:
+            sim.k = k - 1
+            s, dl = np.zeros((g.K, 6)), np.zeros((g.K, 6))
+            s[sl], dl[sl] = cmd[1], cmd[2]
+            sim._command_limits(s, dl)
+        sim.k = k
+        if whole:
+            sim._check_status()
+        else:
+            self._diverged(sl)
+        q, v, f = sim._legs_q, sim._legs_v, sim._legs_f
+        if over(q[sl], v[sl], f[sl], sim._half, sim._vmax, sim._fmax, sim._run[sl]):
+            if whole:
+                sim._measured_limits(q, v, f)
+            else:
+                mask = np.zeros((g.K, 1))
+                mask[sl] = 1.0
+                sim._measured_limits(q * mask, v * mask, f * mask)
+        sim.k = keep
+        if sim._any_stopped:
+            tr.stopped[:] = sim.stopped
+            tr.reasons = list(sim.reasons)
+        for j in np.flatnonzero(tr.stopped[sl] & mon.active[sl]):
+            kk = a + int(j)
+            mon.stop(kk, tr.reasons[kk], n)
+            g.num.halt(kk)
+        for sig, h in zip(tr.signals, g.hist, strict=True):
+            h[n + 1, sl] = sig.source[sl]
+        st = self.static[[p[0] for p in self.parts].index(a)]
+        if post_step(st[2], n, g.num.z[sl], tr.z_meas[sl], tr.f_meas[sl], g.num.x[sl],
+                     st[1]):
+            g._halt(n)
+
+    def _diverged(self, sl: slice) -> None:
+        """PlatformBatch._check_status for tests ``sl`` only (the others may be at other
+        steps)."""
+        from ..errors import SafetyStop
+
+        sim = self.sim
+        expected = sim._t0 + sim.k * sim.config.dt - 0.5 * sim.config.timestep
+        failed = sim.batch.failed(expected)
+        if failed is None:
+            return
+        for j in np.flatnonzero(failed[sl] & ~sim.stopped[sl]):
+            k = sl.start + int(j)
+            msg = sim.batch.error(k).strip()
+            what = msg or "MuJoCo bad acceleration, state was reset"
+            sim._freeze(k, SafetyStop(f"divergence ({what}) |qacc|", math.inf, _MAXVAL,
+                                      sim.t, test=k))
