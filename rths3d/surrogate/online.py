@@ -39,10 +39,10 @@ def _step(n, s, f_n, zb, fb, Ad, Bf0, Bf1, P, Czx, th_lo, th_hi, a, c, h,
                 f_out[k, j] = np.nan
             continue
         km = k if Ad.shape[0] > 1 else 0
-        kp = k if P.shape[0] > 1 else 0
+        kp = k if P.shape[1] > 1 else 0  # load terms (N, K, S): one step's tests together
         # free part of the numerical step: Ad s + P[n] − Bf0 f_n
         for i in range(S):
-            v = P[kp, n, i]
+            v = P[n, kp, i]
             for j in range(S):
                 v += Ad[km, i, j] * s[k, j]
             for j in range(d):
@@ -124,7 +124,7 @@ def _step(n, s, f_n, zb, fb, Ad, Bf0, Bf1, P, Czx, th_lo, th_hi, a, c, h,
             continue
         # numerical state s_{n+1} = Ad s + P − Bf0 f_n − Bf1 f_{n+1}
         for i in range(S):
-            v = P[kp, n, i]
+            v = P[n, kp, i]
             for j in range(S):
                 v += Ad[km, i, j] * s[k, j]
             for j in range(d):
