@@ -27,8 +27,12 @@ test separates, pulling with −22 N where the part never pulled (ê's running R
 test whose true error peaks at 0.066 mm). So at the end of every block the part force of ẑ^r
 is compared with the range of F'_m the model's regime held in the warm-up, widened by
 :data:`ENVELOPE` times the warm-up's peak |F'_m|; outside it the estimate is *unreliable*
-from there on: no crossing is acted on (no false stop), the record's metadata ``fidelity``
-names the time and the reason under ``unreliable``, and ``rths3d run`` says so.
+from there on. The first time this happens in a test group, the monitor identifies the part
+again from the record so far (which now holds the behaviour the warm-up lacked), replaces
+the model and recomputes ẑ^r and the running RMS from the start (metadata
+``reidentified``: the time and the reason); a model that is flagged again makes the
+estimate unreliable for the rest of the test: no crossing is acted on (no false stop), the
+metadata names the time and the reason under ``unreliable``, and ``rths3d run`` says so.
 """
 
 from __future__ import annotations
@@ -84,6 +88,8 @@ class FidelityMonitor:
         self.peak = np.zeros((len(self.scenes), len(self.dofs)))
         self.failed: list[str] = [""] * len(self.scenes)
         self.unreliable: list[dict[str, float | str] | None] = [None] * len(self.scenes)
+        self.reidentified: list[dict[str, float | str] | None] = [None] * len(self.scenes)
+        self.reidentified_at = 0.0  # s: when the group was identified again (0: never)
         self.identify_s = 0.0
         """Wall time of the identification after the warm-up (s; once per test group)."""
         self.identify_cpu_s = 0.0
@@ -130,8 +136,8 @@ class FidelityMonitor:
         if self.online is None:
             t0, c0 = time.perf_counter(), time.process_time()
             self._identify(data[: n + 1, :, c_z:c_z + d], data[: n + 1, :, c_f:c_f + d])
-            self.identify_s = time.perf_counter() - t0
-            self.identify_cpu_s = time.process_time() - c0
+            self.identify_s += time.perf_counter() - t0  # the re-identification added
+            self.identify_cpu_s += time.process_time() - c0
             if self.online is None:
                 return
         rows = self.watch
@@ -151,14 +157,26 @@ class FidelityMonitor:
             block = data[self.done + 1:n + 1]
             for r, k in enumerate(rows):
                 block[:, k, c_r:c_r + d] = rms[:, r]
-        self._envelope(n)
+        if self._envelope(n) and not self.reidentified_at:
+            # once per test group: identify again from the record so far (it now holds the
+            # behaviour the warm-up lacked) and catch ẑ^r up with the new model
+            self.reidentified_at = n * self.dt
+            for k in self.watch:
+                if self.unreliable[k] is not None:
+                    self.reidentified[k] = self.unreliable[k]
+                    self.unreliable[k] = None
+            self.online = None
+            self._update(data, ci, n, stop)
+            return
         if crossed:
             self._cross(n, stop)
         self.done = n
 
-    def _envelope(self, n: int) -> None:
+    def _envelope(self, n: int) -> bool:
         """Flag the tests whose ẑ^r, at the end of the block ending at row n, drives the part
-        model outside the force range its regime held in the warm-up (:data:`ENVELOPE`)."""
+        model outside the force range its regime held in the warm-up (:data:`ENVELOPE`).
+        Returns whether a test was newly flagged."""
+        new = False
         on = self.online
         w = np.einsum("kd,kd->k", on.z_ref, self._sw_a) - \
             np.einsum("kd,kd->k", on.f_ref, self._sw_c) - self._sw_h
@@ -171,6 +189,7 @@ class FidelityMonitor:
             k = int(self.watch[r])
             if self.unreliable[k] is not None:
                 continue
+            new = True
             j = int(np.argmax(out[r]))
             regime = "contact (high)" if hi[r] and np.isfinite(self._sw_h[r]) else "free (low)"
             if not np.isfinite(self._sw_h[r]):
@@ -182,8 +201,8 @@ class FidelityMonitor:
                           f"to a force of {on.f_ref[r, j]:.4g} {unit} in its {regime} regime, "
                           f"outside the {lo_b[r, j]:.4g} … {hi_b[r, j]:.4g} {unit} that regime "
                           f"held in the warm-up (widened by {ENVELOPE:g}× the peak |F'_m|): "
-                          "the warm-up did not show this behaviour of the part; no fidelity "
-                          "crossing is acted on from here"}
+                          "the warm-up did not show this behaviour of the part"}
+        return new
 
     def _identify(self, z: np.ndarray, f: np.ndarray) -> None:
         """The part of every watched test from its warm-up samples; the online reference."""
@@ -305,7 +324,8 @@ class FidelityMonitor:
                                "peak": [float(v) for v in self.peak[k]],
                                "peak_after": float(s.fidelity_warmup),
                                "crossed": self.first[k],
-                               "unreliable": self.unreliable[k]}
+                               "unreliable": self.unreliable[k],
+                               "reidentified": self.reidentified[k]}
         if self.failed[k] or self.online is None:
             out["error"] = self.failed[k] or (
                 "the test ended before the warm-up" if self.online is None else "")
