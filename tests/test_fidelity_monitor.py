@@ -48,6 +48,8 @@ def test_warning_at_the_true_errors_crossing_with_its_peak():
     assert abs(fid["crossed"]["t"] - t_true) < 0.02, (fid["crossed"], t_true)
     assert fid["peak"][0] == pytest.approx(after.max(), rel=0.05)
     assert fid["model"]  # the identified class, e.g. switched(4,2)
+    # the part stays within its warm-up's force ranges: no second identification
+    assert fid["unreliable"] is None and fid["reidentified"] is None
     # the online estimate is in the record (the live view draws it): its peak after the
     # warm-up is the metadata's, it is above the limit at the crossing and below just before
     online = res.record.columns["e_hat_rms.z"]
@@ -76,7 +78,20 @@ def test_no_warning_on_a_faithful_test_and_off_by_default():
     limit the record carries no monitor metadata."""
     res = run(_scene(0.0, "stop"))
     assert res.status == "ok" and res.record.meta["fidelity"]["crossed"] is None
-    assert _true_running_rms(res.record)[1000:].max() < LIMIT
+    true = _true_running_rms(res.record)
+    assert true[1000:].max() < LIMIT
+    # the 1 s warm-up holds one entry into contact and no separation: the identified part
+    # stays in contact in ẑ^r and pulls; the monitor finds its estimate unreliable (before
+    # it crossed the limit), identifies the part again from the record so far and
+    # recomputes the estimate, which then follows the true error's peak
+    fid = res.record.meta["fidelity"]
+    bad = fid["reidentified"]
+    assert bad is not None and "estimate unreliable" in bad["reason"], fid
+    assert 1.0 < bad["t"] < 4.0 and fid["unreliable"] is None
+    online = res.record.columns["e_hat_rms.z"]
+    assert np.isfinite(online[1:]).all()
+    assert fid["peak"][0] == pytest.approx(true[1000:].max(), rel=0.05)
+    assert np.max(online[1000:]) == pytest.approx(fid["peak"][0], rel=1e-12)
     plain = run(load_scene("paper_contact", {"transfer.kind": "lti", "duration": 2.0}))
     assert "fidelity" not in plain.record.meta
     assert "e_hat_rms.z" not in plain.record.columns
@@ -107,3 +122,32 @@ def test_bad_monitor_settings_name_the_field(key, value, needle):
     with pytest.raises(ConfigError, match=needle):
         load_scene("paper_contact", {"duration": 4.0, "safety.fidelity_limit": LIMIT,
                                      key: value})
+
+
+def test_closed_form_coupling_of_several_tests_reads_each_tests_load():
+    """Two tests with different loads and different part models, coupled together in closed
+    form (the monitor's and the estimator's batch), equal the interface iteration of the
+    reference solution (couple_exact) run on the same batch: each test steps its own load."""
+    from rths3d.numerical import LinearSubstructure
+    from rths3d.reference import couple_exact
+    from rths3d.surrogate import LagPart
+    from rths3d.surrogate.arx import ARX
+    from rths3d.surrogate.online import couple_closed_form
+
+    dt, n = 1e-3, 1500
+    t = np.arange(n + 1) * dt
+    rng = np.random.default_rng(3)
+    zs = np.cumsum(rng.normal(0.0, 1e-5, n + 1))[:, None]  # m, a random walk
+    models = []
+    for k_p, c_p in ((2.0e3, 5.0), (6.0e3, 20.0)):  # N/m, N·s/m: spring-dampers
+        fs = k_p * zs + c_p * np.gradient(zs[:, 0], dt)[:, None]
+        models.append(ARX(4, 2).fit(zs, fs))
+    M, C, K, G = np.array([[9.62]]), np.array([[100.0]]), np.array([[1.0e4]]), np.eye(1)
+    p = np.stack([50.0 * np.sin(2 * np.pi * 1.5 * t), 80.0 * np.cos(2 * np.pi * 0.7 * t)])
+    num = lambda: LinearSubstructure(np.stack([M, M]), np.stack([C, C]),  # noqa: E731
+                                     np.stack([K, K]), G, p[:, :, None], dt, "exact")
+    closed = couple_closed_form(num(), LagPart(models), n)["z_ref"]
+    exact = couple_exact(num(), LagPart(models), n, tol=1e-13)["z_ref"]
+    scale = np.max(np.abs(exact))
+    assert scale > 1e-3  # m: both tests move (80 N on 10 kN/m)
+    np.testing.assert_allclose(closed, exact, rtol=0, atol=1e-7 * scale)

@@ -184,6 +184,9 @@ def run(
                    f"{fid['limit']:g}, part model {fid['model']})"
                    + (f"; crossed at t = {cross['t']:.3f} s ({cross['dof']})" if cross
                       else "; never crossed"))
+        if fid.get("unreliable"):
+            typer.echo(f"  fidelity     : from t = {fid['unreliable']['t']:.3f} s "
+                       f"{fid['unreliable']['reason']}")
     typer.echo(f"  RTF          = {res.rtf:.1f} (simulated s per wall s)")
     if res.out:
         typer.echo(f"  record       → {res.out}")

@@ -39,7 +39,7 @@ def _step(n, s, f_n, zb, fb, Ad, Bf0, Bf1, P, Czx, th_lo, th_hi, a, c, h,
                 f_out[k, j] = np.nan
             continue
         km = k if Ad.shape[0] > 1 else 0
-        kp = k if P.shape[1] > 1 else 0
+        kp = k if P.shape[1] > 1 else 0  # load terms (N, K, S): one step's tests together
         # free part of the numerical step: Ad s + P[n] − Bf0 f_n
         for i in range(S):
             v = P[n, kp, i]
