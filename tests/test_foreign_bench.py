@@ -17,6 +17,7 @@ The full matrix with its figures: ``python examples/66_foreign_bench.py``.
 from __future__ import annotations
 
 import math
+import os
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -361,6 +362,17 @@ def described_wrong_case(folder: Path, name: str, error: str, seed: int = 21) ->
             "error_val": validation_error(diag), "revisions": diag.revisions}
 
 
+FULL = pytest.mark.skipif(
+    not os.environ.get("RTHS3D_FULL_MATRIX"),
+    reason="the rest of the foreign-bench figures (1–2 min each): RTHS3D_FULL_MATRIX=1 runs them "
+           "here, examples/66_foreign_bench.py prints them all; the suite keeps the cases "
+           "measured on 2026-11-27")
+MEASURED_WRONG = {("rigid", "hold"), ("rigid", "sample"), ("rigid", "mass"),
+                  ("rigid", "com_height"), ("geometry", "sample")}
+"""Described-wrong cases measured and passing when written (docs/diagnosis.md)."""
+MEASURED_MATRIX = {"coulomb_friction.leg2", "fts_mount.x"}
+"""Matrix cases measured and passing when written (docs/diagnosis.md)."""
+
 ANCHOR_MISS = pytest.mark.xfail(
     reason="measured on bench A (2026-11-27): a 1.5 mm anchor error is taken by leg_offset, "
            "which ranks above kinematic_calibration; 6.5 noise units remain (docs/diagnosis.md)",
@@ -369,7 +381,8 @@ ANCHOR_MISS = pytest.mark.xfail(
 
 @pytest.mark.parametrize("name,error", [
     ("rigid", "hold"),
-    *[pytest.param(n, e, marks=[pytest.mark.slow, *([ANCHOR_MISS] if e == "anchor" else [])])
+    *[pytest.param(n, e, marks=[pytest.mark.slow, *([ANCHOR_MISS] if e == "anchor" else []),
+                                *([] if (n, e) in MEASURED_WRONG else [FULL])])
       for n, e in WRONG if (n, e) != ("rigid", "hold")]])
 def test_described_wrong_is_found_and_fixed(tmp_path, name, error):
     """Described wrong (one error): the error is found first and the validation error falls
@@ -441,7 +454,8 @@ GAIN_MISS = pytest.mark.xfail(
 @pytest.mark.parametrize("label", [
     "coulomb_friction.leg2",
     *[pytest.param(k, marks=[pytest.mark.slow, *([GAIN_MISS] if k == "servo_gain.leg1"
-                                                 else [])])
+                                                 else []),
+                             *([] if k in MEASURED_MATRIX else [FULL])])
       for k in MATRIX if k != "coulomb_friction.leg2"]])
 def test_matrix_effect_on_a_foreign_bench(tmp_path, label):
     """An effect of today's matrix hidden in foreign bench A: it ranks first (on the right
