@@ -17,7 +17,7 @@ from typing import ClassVar
 import numpy as np
 
 from ...config import Scene
-from . import Revision, current, register_description
+from .base import Revision, current, register_description
 
 CONVENTIONS: dict[str, tuple[str, ...]] = {
     "hold": ("ramp", "zoh"),

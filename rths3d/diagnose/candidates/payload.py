@@ -14,7 +14,7 @@ import numpy as np
 from ...config import Scene
 from ...effects import WRENCH
 from ...record import DOFS
-from . import Revision, current, register_description
+from .base import Revision, current, register_description
 
 
 def _sensor_pose(scene: Scene) -> tuple[float, ...]:

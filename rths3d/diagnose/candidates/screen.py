@@ -13,7 +13,7 @@ from ...bench import BenchReplay
 from ...config import EffectConfig, Scene
 from ...effects import parse_label
 from ...errors import ConfigError
-from . import PREFIX, Revision, current, revised_scene, revisions
+from .base import PREFIX, Revision, current, revised_scene, revisions
 
 __all__ = ["revise", "screen_revisions"]
 
