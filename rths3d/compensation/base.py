@@ -204,6 +204,20 @@ def check_bounds(field: str, lo_hi: tuple[float, float]) -> None:
           "must be two finite numbers [lo, hi] with lo ≤ hi")
 
 
+def channel_blocks(field: str, values: Sequence[float], size: int, K: int, n: int,
+                   shape: tuple[int, ...]) -> np.ndarray:
+    """A block parameter (``size`` numbers of ``shape``, e.g. FIR taps or a covariance) as a
+    (K, n, *shape) array: one block for every channel, or one per channel (n·size values)."""
+    v = np.asarray(values, dtype=float)
+    if v.size == size:
+        return np.broadcast_to(v.reshape(shape), (K, n, *shape)).copy()
+    if v.size == n * size:
+        return np.broadcast_to(v.reshape(n, *shape), (K, n, *shape)).copy()
+    check(field, list(values), False, f"must be {size} values, or {n * size} ({size} per "
+          "channel)")
+    raise AssertionError  # pragma: no cover
+
+
 def channel_values(field: str, value: float | Sequence[float], K: int, n: int,
                    per: str = "channel") -> np.ndarray:
     """A parameter as a (K, n) array: a scalar for all, or one value per channel (length n,

@@ -35,6 +35,7 @@ from .base import (
     BaseCompensator,
     WatchConfig,
     butter_sos,
+    channel_blocks,
     check,
     check_bounds,
     register,
@@ -216,17 +217,10 @@ UNITS = ("", "s", "")
 def _theta0(config: RLSConfig, K: int, n: int) -> np.ndarray:
     N = config.taps
     if not config.theta0:
-        th = np.zeros(N)
-        th[0] = 1.0
-        return np.broadcast_to(th, (K, n, N)).copy()
-    t0 = np.asarray(config.theta0, dtype=float)
-    if t0.size == N:
-        return np.broadcast_to(t0, (K, n, N)).copy()
-    if t0.size == n * N:
-        return np.broadcast_to(t0.reshape(n, N), (K, n, N)).copy()
-    check("rls.theta0", list(config.theta0), False,
-          f"must be {N} values, or {n * N} ({N} per channel)")
-    raise AssertionError  # pragma: no cover
+        th = np.zeros((K, n, N))
+        th[:, :, 0] = 1.0
+        return th
+    return channel_blocks("rls.theta0", config.theta0, N, K, n, (N,))
 
 
 def _spacing_steps(config: RLSConfig, dt: float) -> int:

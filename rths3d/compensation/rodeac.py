@@ -40,6 +40,7 @@ from .base import (
     BaseCompensator,
     WatchConfig,
     butter_sos,
+    channel_blocks,
     check,
     check_bounds,
     register,
@@ -213,19 +214,6 @@ def butter_ba(order: int, cutoff: float, dt: float) -> tuple[np.ndarray, np.ndar
     return np.ascontiguousarray(b, dtype=float), np.ascontiguousarray(a, dtype=float)
 
 
-def _per_channel(field: str, values: tuple[float, ...], size: int, K: int, n: int,
-                 shape: tuple[int, ...]) -> np.ndarray:
-    v = np.asarray(values, dtype=float)
-    if v.size == size:
-        one = v.reshape(shape)
-        return np.broadcast_to(one, (K, n, *shape)).copy()
-    if v.size == n * size:
-        return np.broadcast_to(v.reshape(n, *shape), (K, n, *shape)).copy()
-    check(field, list(values), False, f"must be {size} values, or {n * size} ({size} per "
-          "channel)")
-    raise AssertionError  # pragma: no cover
-
-
 @register
 class RoDeACCompensator(BaseCompensator):
     """RoDeAC (see module docstring). ``coefficients()``: ``theta0``…``theta{N−1}`` and
@@ -243,14 +231,14 @@ class RoDeACCompensator(BaseCompensator):
         c.check_watch("rodeac", dt)
         N = c.taps
         if c.theta0:
-            self.theta_init = _per_channel("rodeac.theta0", c.theta0, N, K, n, (N,))
+            self.theta_init = channel_blocks("rodeac.theta0", c.theta0, N, K, n, (N,))
         else:
             self.theta_init = np.zeros((K, n, N))
             self.theta_init[:, :, 0] = 1.0
         if len(c.p0) == 1:
             self.p_init = np.broadcast_to(np.eye(N) * c.p0[0], (K, n, N, N)).copy()
         else:
-            self.p_init = _per_channel("rodeac.p0", c.p0, N * N, K, n, (N, N))
+            self.p_init = channel_blocks("rodeac.p0", c.p0, N * N, K, n, (N, N))
         self.b, self.a = butter_ba(c.filter_order, c.filter_hz, dt)
         order = self.a.size - 1
         self.hp = butter_sos(2, c.osc_corner, dt, "highpass")

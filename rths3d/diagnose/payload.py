@@ -33,6 +33,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError
+from ..platform.fts_calibration import skew
+from ..platform.kinematics import rotation_matrix
 
 __all__ = ["PARAMETERS", "PayloadIdentification", "inertia_about_com", "payload_parameters",
            "regressor"]
@@ -43,31 +45,6 @@ PARAMETERS: tuple[str, ...] = ("m", "m*cx", "m*cy", "m*cz", "Ixx", "Ixy", "Ixz",
 
 UNITS: tuple[str, ...] = ("kg", "kg·m", "kg·m", "kg·m", "kg·m²", "kg·m²", "kg·m²", "kg·m²",
                           "kg·m²", "kg·m²")
-
-
-def _rot(rx: np.ndarray, ry: np.ndarray, rz: np.ndarray) -> np.ndarray:
-    """R = Rz(rz) Ry(ry) Rx(rx) for arrays of angles, (N, 3, 3)."""
-    cx, sx, cy, sy, cz, sz = (np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz),
-                              np.sin(rz))
-    R = np.empty(rx.shape + (3, 3))
-    R[..., 0, 0] = cz * cy
-    R[..., 0, 1] = cz * sy * sx - sz * cx
-    R[..., 0, 2] = cz * sy * cx + sz * sx
-    R[..., 1, 0] = sz * cy
-    R[..., 1, 1] = sz * sy * sx + cz * cx
-    R[..., 1, 2] = sz * sy * cx - cz * sx
-    R[..., 2, 0] = -sy
-    R[..., 2, 1] = cy * sx
-    R[..., 2, 2] = cy * cx
-    return R
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    S = np.zeros(v.shape[:-1] + (3, 3))
-    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
-    return S
 
 
 def _dot_mat(w: np.ndarray) -> np.ndarray:
@@ -87,10 +64,10 @@ def regressor(acc: np.ndarray, omega: np.ndarray, domega: np.ndarray) -> np.ndar
                           for x in (acc, omega, domega))
     n = acc.shape[0]
     A = np.zeros((n, 6, 10))
-    W, dW = _skew(omega), _skew(domega)
+    W, dW = skew(omega), skew(domega)
     A[:, :3, 0] = acc
     A[:, :3, 1:4] = dW + W @ W
-    A[:, 3:, 1:4] = -_skew(acc)
+    A[:, 3:, 1:4] = -skew(acc)
     A[:, 3:, 4:] = _dot_mat(domega) + W @ _dot_mat(omega)
     return A
 
@@ -202,8 +179,8 @@ class PayloadIdentification:
             raise ConfigError("dt", dt, "must be > 0 s")
         if not filtered:
             q = self._filter(q, dt)
-        R = _rot(q[:, 3], q[:, 4], q[:, 5])
-        Rs = _rot(*(np.array([v]) for v in self.sensor[3:]))[0]
+        R = rotation_matrix(q[:, 3], q[:, 4], q[:, 5])
+        Rs = rotation_matrix(*self.sensor[3:])
         Rw = R @ Rs  # sensor frame in world axes
         p = q[:, :3] + R @ self.sensor[:3]
         acc_w = np.gradient(np.gradient(p, dt, axis=0), dt, axis=0)
