@@ -51,7 +51,7 @@ from .kernels import (
     read_interface,
     take_sample,
 )
-from .ranges import _mj_tuple
+from .ranges import _mj_tuple, platform_args
 
 __all__ = ["ClosedRange", "closed_ok", "closed_range"]
 
@@ -304,29 +304,13 @@ class ClosedRange:
 
     def _plat(self) -> tuple:
         sim = self.sim
-        ch = sim.setpoint_chain
-        chain = (ch.fns, ch.params, ch.states, ch._w, ch.empty)
-        geo = (sim._b, sim._p, sim._hh, sim._home, sim._half, sim._vdt, sim._vmax, sim._fmax)
-        ctl = (sim._ffg, sim._ffn, sim._Lprev, sim._L, np.zeros_like(sim._L), sim._sp,
-               np.zeros_like(sim._sp), sim._off, sim._bias, sim._cprev, sim._cnew, sim._zoh,
-               sim._inv_dt, sim._a0, sim._s0, sim._ahead, sim._Lnext)
+        geo, ctl, chain, live, fts, smp = platform_args(sim)
         mt = _mj_tuple(sim, True)
         # the warm first substep: one MjData per test stepped in place (no state rows)
         m = sim.model
         warm = int(m.opt.integrator) if not mt[2] and not (
             m.opt.enableflags & int(mujoco.mjtEnableBit.mjENBL_FWDINV)) else -1
         mj = (*mt, sim._run, warm)
-        live = (sim._ctrl, sim._act, sim.live_qpos, sim._legs_q, sim._legs_v, sim._legs_f,
-                sim.leg_force_sensor, sim._fts_quat, getattr(sim, "_live_R", sim._fts_R))
-        has_c = sim._fts_C is not None
-        C = sim._fts_C if has_c else np.zeros((1, 6, 6))
-        fts = (has_c, C, sim._fts_b, sim._raw_force, sim._raw_torque, sim.fts_reading,
-               sim._fts_force, sim._fts_torque)
-        meas = (sim.plate_qpos, sim.meas_legs_q, sim.meas_legs_f, sim._fts_R)
-        K = sim.nsim
-        targets = meas if sim._any_start else (np.zeros((K, 7)), np.zeros((K, 6)),
-                                                np.zeros((K, 6)), np.zeros((K, 9)))
-        smp = (sim._start, sim._any_start, *targets, *meas)
         return (geo, ctl, chain, mj, live, fts, smp, (sim._pre, sim.rest_pose))
 
     def _static(self, a: int, b: int) -> tuple:

@@ -187,17 +187,16 @@ def track_batch(sim: PlatformBatch, poses: np.ndarray, idx: np.ndarray, *,
     return rec
 
 
-def _range_args(sim: PlatformBatch, P, Pn, idx, rec: TrackRecord, z, f,
-                lazy: bool) -> tuple:
-    """The arguments of :func:`~rths3d.platform.compiled.run_range` after its step range."""
+def platform_args(sim: PlatformBatch) -> tuple:
+    """The platform's argument groups of the compiled kernels (views of ``sim``'s arrays):
+    (geometry, controller, set-point chain, live MuJoCo views, FTS, sampling); the MuJoCo
+    group is the caller's (:func:`_mj_tuple` and what its kernel adds)."""
     ch = sim.setpoint_chain
-    empty = ch.empty
-    chain = (ch.fns, ch.params, ch.states, ch._w, empty)
+    chain = (ch.fns, ch.params, ch.states, ch._w, ch.empty)
     geo = (sim._b, sim._p, sim._hh, sim._home, sim._half, sim._vdt, sim._vmax, sim._fmax)
     ctl = (sim._ffg, sim._ffn, sim._Lprev, sim._L, np.zeros_like(sim._L), sim._sp,
            np.zeros_like(sim._sp), sim._off, sim._bias, sim._cprev, sim._cnew, sim._zoh,
            sim._inv_dt, sim._a0, sim._s0, sim._ahead, sim._Lnext)
-    mj = _mj_tuple(sim, not lazy)
     live = (sim._ctrl, sim._act, sim.live_qpos, sim._legs_q, sim._legs_v, sim._legs_f,
             sim.leg_force_sensor, sim._fts_quat, getattr(sim, "_live_R", sim._fts_R))
     has_c = sim._fts_C is not None
@@ -209,6 +208,14 @@ def _range_args(sim: PlatformBatch, P, Pn, idx, rec: TrackRecord, z, f,
     targets = meas if sim._any_start else (np.zeros((K, 7)), np.zeros((K, 6)),
                                             np.zeros((K, 6)), np.zeros((K, 9)))
     smp = (sim._start, sim._any_start, *targets, *meas)
+    return geo, ctl, chain, live, fts, smp
+
+
+def _range_args(sim: PlatformBatch, P, Pn, idx, rec: TrackRecord, z, f,
+                lazy: bool) -> tuple:
+    """The arguments of :func:`~rths3d.platform.compiled.run_range` after its step range."""
+    geo, ctl, chain, live, fts, smp = platform_args(sim)
+    mj = _mj_tuple(sim, not lazy)
     recs = (lazy, idx, sim._pre, sim.rest_pose, sim._R_start, z, f, rec.q, rec.legs_q,
             rec.legs_f, rec.fts, rec.z, rec.f, True)
     return (P[1:], Pn[1:], sim._run, geo, ctl, chain, mj, live, fts, smp, recs)
