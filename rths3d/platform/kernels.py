@@ -59,20 +59,27 @@ def rotation(rx, ry, rz):  # pragma: no cover - jit
             -sy, cy * sx, cy * cx)
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def ik_row(poses, k, b, p, hh, L):  # pragma: no cover - jit
+    """Leg lengths ``L[k]`` of pose ``poses[k]`` (relative to home): L_i = |t + R p_i − b_i|,
+    R = :func:`rotation`, t the plate position with the home height ``hh`` added."""
+    x, y, tz = poses[k, 0], poses[k, 1], poses[k, 2] + hh
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation(poses[k, 3], poses[k, 4],
+                                                           poses[k, 5])
+    for i in range(6):
+        px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+        lx = x + r00 * px + r01 * py + r02 * pz - b[i, 0]
+        ly = y + r10 * px + r11 * py + r12 * pz - b[i, 1]
+        lz = tz + r20 * px + r21 * py + r22 * pz - b[i, 2]
+        L[k, i] = math.sqrt(lx * lx + ly * ly + lz * lz)
+
+
 @njit
 def leg_lengths_of(poses, b, p, hh, L):
     """Leg lengths (K, 6) of the poses (K, 6) relative to home: the inverse kinematics of
     :func:`leg_setpoints`."""
     for k in range(poses.shape[0]):
-        x, y, tz = poses[k, 0], poses[k, 1], poses[k, 2] + hh
-        r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation(
-            poses[k, 3], poses[k, 4], poses[k, 5])
-        for i in range(6):
-            px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-            lx = x + r00 * px + r01 * py + r02 * pz - b[i, 0]
-            ly = y + r10 * px + r11 * py + r12 * pz - b[i, 1]
-            lz = tz + r20 * px + r21 * py + r22 * pz - b[i, 2]
-            L[k, i] = math.sqrt(lx * lx + ly * ly + lz * lz)
+        ik_row(poses, k, b, p, hh, L)
 
 
 @njit
@@ -95,15 +102,7 @@ def leg_setpoints(poses, b, p, hh, home, ffg, Lprev, L, sp, half, vdt, run, ik,
     bad = 0
     for k in range(poses.shape[0]):
         if ik:
-            x, y, tz = poses[k, 0], poses[k, 1], poses[k, 2] + hh
-            r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation(
-                poses[k, 3], poses[k, 4], poses[k, 5])
-            for i in range(6):
-                px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-                lx = x + r00 * px + r01 * py + r02 * pz - b[i, 0]
-                ly = y + r10 * px + r11 * py + r12 * pz - b[i, 1]
-                lz = tz + r20 * px + r21 * py + r22 * pz - b[i, 2]
-                L[k, i] = math.sqrt(lx * lx + ly * ly + lz * lz)
+            ik_row(poses, k, b, p, hh, L)
         ok = True
         for i in range(6):
             # `not <=`: a NaN command stops like an overrun
