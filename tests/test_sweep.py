@@ -15,6 +15,9 @@ import pytest
 
 from rths3d.dataset import load_spec, run_sweep
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from processes import alive_in_session  # noqa: E402
+
 TINY = """
 [sweep]
 name = "tiny"
@@ -485,24 +488,6 @@ def test_cli_sweep_whose_every_test_is_refused_is_one_error_line(tmp_path) -> No
     assert set(pd.read_parquet(out / "tiny.parquet")["status"]) == {"error"}
 
 
-def _alive_in_session(sid: int) -> list[tuple[int, str]]:
-    """Live processes (no zombies) of session ``sid``, with their command lines."""
-    found = []
-    for d in os.listdir("/proc"):
-        if not d.isdigit():
-            continue
-        try:
-            with open(f"/proc/{d}/stat") as f:
-                fields = f.read().rsplit(")", 1)[1].split()
-            with open(f"/proc/{d}/cmdline", "rb") as f:
-                cmd = f.read().replace(b"\0", b" ").decode(errors="replace")
-        except OSError:
-            continue
-        if int(fields[3]) == sid and fields[0] != "Z":
-            found.append((int(d), cmd))
-    return found
-
-
 @pytest.mark.skipif(not os.path.isdir("/proc"), reason="reads /proc")
 def test_kill_9_of_a_pool_sweep_leaves_nothing_running(tiny_spec, reference_table,
                                                        tmp_path) -> None:
@@ -518,18 +503,18 @@ def test_kill_9_of_a_pool_sweep_leaves_nothing_running(tiny_spec, reference_tabl
         deadline = time.time() + 120
         # mid-way: the workers are up (the sweep process, forkserver, tracker, 2 workers)
         while time.time() < deadline and proc.poll() is None \
-                and len(_alive_in_session(proc.pid)) < 5:
+                and len(alive_in_session(proc.pid)) < 5:
             time.sleep(0.05)
         assert proc.poll() is None, "the sweep finished before it could be killed"
         assert not (out / "tiny.parquet").exists()
         os.kill(proc.pid, signal.SIGKILL)
         proc.wait()
         killed_at = time.time()
-        while _alive_in_session(proc.pid) and time.time() < killed_at + 5:
+        while alive_in_session(proc.pid) and time.time() < killed_at + 5:
             time.sleep(0.05)
-        left = _alive_in_session(proc.pid)
+        left = alive_in_session(proc.pid)
     finally:
-        for pid, _ in _alive_in_session(proc.pid):
+        for pid, _ in alive_in_session(proc.pid):
             os.kill(pid, signal.SIGKILL)
     assert left == [], left
     p = subprocess.run(cmd, capture_output=True, text=True, timeout=300)

@@ -15,29 +15,14 @@ from pathlib import Path
 
 import pytest
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from processes import alive_in_session  # noqa: E402
+
 ROOT = Path(__file__).resolve().parents[1]
 SPEC = ROOT / "scenes" / "sweeps" / "table1_lti.toml"
 
 pytestmark = pytest.mark.skipif(not os.path.isdir("/proc") or not SPEC.exists(),
                                 reason="reads /proc; needs scenes/sweeps/table1_lti.toml")
-
-
-def _session(sid: int) -> list[tuple[int, str]]:
-    """Live processes (no zombies) of session ``sid``, with their command lines."""
-    found = []
-    for d in os.listdir("/proc"):
-        if not d.isdigit():
-            continue
-        try:
-            with open(f"/proc/{d}/stat") as f:
-                fields = f.read().rsplit(")", 1)[1].split()
-            with open(f"/proc/{d}/cmdline", "rb") as f:
-                cmd = f.read().replace(b"\0", b" ").decode(errors="replace")
-        except OSError:
-            continue
-        if int(fields[3]) == sid and fields[0] != "Z":
-            found.append((int(d), cmd))
-    return found
 
 
 @pytest.mark.parametrize("when", ["5s", "mid-run"])
@@ -57,18 +42,18 @@ def test_kill_9_of_the_table1_sweep_leaves_no_process(tmp_path, when) -> None:
             time.sleep(5.0)
         else:
             while time.time() < t0 + 120 and proc.poll() is None \
-                    and len(_session(proc.pid)) < 5:
+                    and len(alive_in_session(proc.pid)) < 5:
                 time.sleep(0.05)
-            assert len(_session(proc.pid)) >= 5, "the workers never came up"
+            assert len(alive_in_session(proc.pid)) >= 5, "the workers never came up"
             time.sleep(3.0)
         assert proc.poll() is None, "the sweep ended before it could be killed"
         os.kill(proc.pid, signal.SIGKILL)
         proc.wait()
         killed = time.time()
-        while _session(proc.pid) and time.time() < killed + 5.0:
+        while alive_in_session(proc.pid) and time.time() < killed + 5.0:
             time.sleep(0.05)
-        left = _session(proc.pid)
+        left = alive_in_session(proc.pid)
     finally:
-        for pid, _ in _session(proc.pid):
+        for pid, _ in alive_in_session(proc.pid):
             os.kill(pid, signal.SIGKILL)
     assert left == [], left

@@ -8,31 +8,19 @@ import socket
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
 from rths3d.record import Record
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from processes import alive_in_session  # noqa: E402
+
 
 def view(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "rths3d", "view", *args], capture_output=True,
                           text=True, timeout=timeout)
-
-
-def _alive_in_session(sid: int) -> list[int]:
-    """Processes (not zombies) of session ``sid``: what a command started and left running."""
-    out = []
-    for d in os.listdir("/proc"):
-        if not d.isdigit():
-            continue
-        try:
-            with open(f"/proc/{d}/stat") as f:
-                fields = f.read().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[3]) == sid and fields[0] != "Z":
-            out.append(int(d))
-    return out
 
 
 @pytest.fixture
@@ -90,7 +78,7 @@ def test_sigterm_shuts_down_cleanly(tmp_path) -> None:
         line = proc.stdout.readline()
         assert line.startswith("rths3d view: http://"), proc.stderr.read()
         time.sleep(1.0)
-        assert len(_alive_in_session(proc.pid)) >= 2  # the command and its view process
+        assert len([p for p, _ in alive_in_session(proc.pid)]) >= 2  # the command and its view process
         proc.send_signal(signal.SIGTERM)
         stdout, stderr = proc.communicate(timeout=60)
     finally:
@@ -102,6 +90,6 @@ def test_sigterm_shuts_down_cleanly(tmp_path) -> None:
     assert f"record saved: {out}" in stdout
     assert Record.load(out).meta["status"] == "stopped"
     deadline = time.time() + 5
-    while _alive_in_session(proc.pid) and time.time() < deadline:
+    while [p for p, _ in alive_in_session(proc.pid)] and time.time() < deadline:
         time.sleep(0.1)
-    assert _alive_in_session(proc.pid) == []
+    assert [p for p, _ in alive_in_session(proc.pid)] == []
