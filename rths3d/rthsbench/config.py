@@ -28,35 +28,51 @@ EXCITATIONS = ("ElCentro", "Kobe", "Morgan")
 ENV_VAR = "RTHS3D_BENCHMARK_DIR"
 
 
+def benchmark_folder(path: str | Path | None, env_var: str, name: str, marker: str,
+                     field: str, holds: str, what: str = "") -> Path:
+    """A community benchmark's folder: ``path`` if given, else ``$env_var``, else
+    ``shared/external/<name>`` beside the repository; it must hold ``marker`` (a path
+    inside it, named ``what`` in messages). ConfigError naming the places tried (only ``path``
+    when it is given)."""
+    what = what or marker
+    if path:
+        if not (Path(path) / marker).exists():
+            raise ConfigError(field, str(path), f"no {what} in it; the benchmark folder "
+                              f"holds {holds}")
+        return Path(path)
+    tried = []
+    env = os.environ.get(env_var)
+    if env:
+        if (Path(env) / marker).exists():
+            return Path(env)
+        tried.append(env)
+    p = Path(__file__).resolve().parents[2] / ".." / "shared" / "external" / name
+    if (p / marker).exists():
+        return p.resolve()
+    tried.append(str(p))
+    raise ConfigError(field, None, f"no {what} found (tried {', '.join(tried)}); set "
+                      f"{env_var}")
+
+
+def canonical_name(name: str, choices: tuple[str, ...], field: str) -> str:
+    """The entry of ``choices`` that ``name`` spells (case and separators ignored)."""
+    key = str(name).replace("-", "").replace("_", "").replace(" ", "").lower()
+    for c in choices:
+        if c.lower() == key:
+            return c
+    raise ConfigError(field, name, f"must be one of {', '.join(choices)}")
+
+
 def data_dir(path: str | Path | None = None) -> Path:
     """The benchmark data folder (holding ``data/``); ConfigError naming the places tried
     (only ``path`` when it is given)."""
-    if path:
-        if not (Path(path) / "data").is_dir():
-            raise ConfigError("data", str(path), "no data/ folder in it; the benchmark folder "
-                              "holds data/ground_motion_<name>.csv")
-        return Path(path)
-    tried = []
-    env = os.environ.get(ENV_VAR)
-    if env:
-        if (Path(env) / "data").is_dir():
-            return Path(env)
-        tried.append(env)
-    p = Path(__file__).resolve().parents[2] / ".." / "shared" / "external" / "rths-benchmark"
-    if (p / "data").is_dir():
-        return p.resolve()
-    tried.append(str(p))
-    raise ConfigError("benchmark data", None,
-                      f"no data/ folder found (tried {', '.join(tried)}); set {ENV_VAR}")
+    return benchmark_folder(path, ENV_VAR, "rths-benchmark", "data", "data",
+                            "data/ground_motion_<name>.csv", "data/ folder")
 
 
 def excitation_name(name: str) -> str:
     """Canonical record name for ``name`` (case and separators ignored)."""
-    key = name.replace("-", "").replace("_", "").replace(" ", "").lower()
-    for e in EXCITATIONS:
-        if e.lower() == key:
-            return e
-    raise ConfigError("excitation", name, f"must be one of {', '.join(EXCITATIONS)}")
+    return canonical_name(name, EXCITATIONS, "excitation")
 
 
 def load_excitation(name: str, intensity: float = 0.4, path: str | Path | None = None

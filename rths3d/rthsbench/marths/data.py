@@ -12,13 +12,13 @@ states in plain text (:mod:`.model`, :mod:`.plant`).
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 
 from ...errors import ConfigError
 from ...lti import GroundMotion, load_ground_motion
+from ..config import benchmark_folder, canonical_name
 
 __all__ = ["ENV_VAR", "RECORDS", "data_dir", "load_record", "load_reference_matrices",
            "record_name"]
@@ -30,33 +30,14 @@ RECORDS = ("ElCentro", "Kobe", "Morgan")
 
 def data_dir(path: str | Path | None = None) -> Path:
     """The maRTHS benchmark folder (holding ``data/``); ConfigError naming the places tried."""
-    if path:
-        if not (Path(path) / "data" / "reference_K.csv").is_file():
-            raise ConfigError("--data", str(path), "no data/reference_K.csv in it; the maRTHS "
-                              "benchmark folder holds data/reference_{K,M}.csv and "
-                              "data/ground_motion_<name>.csv")
-        return Path(path)
-    tried = []
-    env = os.environ.get(ENV_VAR)
-    if env:
-        if (Path(env) / "data" / "reference_K.csv").is_file():
-            return Path(env)
-        tried.append(env)
-    p = Path(__file__).resolve().parents[3] / ".." / "shared" / "external" / "marths-benchmark"
-    if (p / "data" / "reference_K.csv").is_file():
-        return p.resolve()
-    tried.append(str(p))
-    raise ConfigError("maRTHS data", None, f"no data/reference_K.csv found (tried "
-                      f"{', '.join(tried)}); pass --data or set {ENV_VAR}")
+    return benchmark_folder(path, ENV_VAR, "marths-benchmark", "data/reference_K.csv",
+                            "--data" if path else "maRTHS data",
+                            "data/reference_{K,M}.csv and data/ground_motion_<name>.csv")
 
 
 def record_name(name: str) -> str:
     """Canonical record name for ``name`` (case and separators ignored)."""
-    key = str(name).replace("-", "").replace("_", "").replace(" ", "").lower()
-    for r in RECORDS:
-        if r.lower() == key:
-            return r
-    raise ConfigError("record", name, f"must be one of {', '.join(RECORDS)}")
+    return canonical_name(name, RECORDS, "record")
 
 
 def load_record(name: str, intensity: float = 0.4, path: str | Path | None = None
