@@ -10,6 +10,8 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,6 +24,9 @@ from rths3d.loop import run
 from rths3d.platform.kinematics import inverse_kinematics
 from rths3d.platform.model import ActuatorConfig, PlatformConfig, model_xml
 from rths3d.scene import load_scene, scene_from_dict, scene_to_dict, scene_to_toml
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from independent import rotation_by_products  # noqa: E402
 
 G = 9.81
 SIX = ["x", "y", "z", "rx", "ry", "rz"]
@@ -99,7 +104,7 @@ def test_explicit_anchors_equal_the_same_platform_by_parameters():
     g1, g2 = by_par.platform.geometry, by_anc.platform.geometry
     poses = np.array([[0, 0, 0, 0, 0, 0], [0.01, -0.02, 0.015, 0.03, -0.02, 0.05],
                       [-0.03, 0.01, -0.02, -0.04, 0.05, -0.02]])
-    R = [_rot(*q[3:]) for q in poses]
+    R = [rotation_by_products(*q[3:]) for q in poses]
     mine = np.array([[np.linalg.norm(q[:3] + [0, 0, OTHER["home_height"]] + Ri @ p[i] - b[i])
                       for i in range(6)] for q, Ri in zip(poses, R, strict=True)])
     L1 = inverse_kinematics(g1, poses)
@@ -118,15 +123,6 @@ def test_explicit_anchors_equal_the_same_platform_by_parameters():
     np.testing.assert_allclose(m1.body("plate").pos, [0, 0, OTHER["home_height"]])
 
 
-def _rot(rx: float, ry: float, rz: float) -> np.ndarray:
-    cx, sx, cy, sy, cz, sz = (math.cos(rx), math.sin(rx), math.cos(ry), math.sin(ry),
-                              math.cos(rz), math.sin(rz))
-    Rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
-    Ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
-    Rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
-    return Rz @ Ry @ Rx
-
-
 def test_calibrated_geometry_file_round_trips(tmp_path):
     """`rths3d platform calibrate` on leg lengths computed here from a perturbed platform
     writes a file; a scene naming it (path relative to the scene) has the true anchors and
@@ -141,7 +137,7 @@ def test_calibrated_geometry_file_round_trips(tmp_path):
     p = _pattern(0.25, math.radians(15), math.pi / 3, True) + rng.normal(0, 1e-3, (6, 3))
     off = rng.normal(0, 2e-3, 6)
     q = np.c_[rng.uniform(-0.02, 0.02, (60, 3)), rng.uniform(-0.06, 0.06, (60, 3))]
-    L = np.array([[np.linalg.norm(qk[:3] + [0, 0, 0.35] + _rot(*qk[3:]) @ p[i] - b[i])
+    L = np.array([[np.linalg.norm(qk[:3] + [0, 0, 0.35] + rotation_by_products(*qk[3:]) @ p[i] - b[i])
                    + off[i] for i in range(6)] for qk in q])
     cols = [f"pose_meas.{d}" for d in SIX] + [f"leg_len.{i}" for i in range(6)]
     np.savetxt(tmp_path / "poses.csv", np.c_[q, L], delimiter=",", header=",".join(cols),

@@ -5,6 +5,8 @@ trajectory differentiated on a 20× finer time grid, then sampled at 1 kHz with 
 from __future__ import annotations
 
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,22 +19,15 @@ from rths3d.diagnose.payload import (
 )
 from rths3d.errors import ConfigError
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from independent import rotation_by_products  # noqa: E402
+
 G = 9.81
 MASS = 4.0  # kg
 COM = np.array([0.02, -0.01, 0.045])  # m, sensor frame
 # about the centre of mass: Ixx, Iyy, Izz, Ixy, Ixz, Iyz (kg·m²), a block 0.16 × 0.12 × 0.09 m
 INERTIA = np.array([0.0075, 0.0112, 0.0133, 0.0006, -0.0004, 0.0003])
 SENSOR = np.array([0.01, -0.005, 0.04, 0.0, 0.0, 0.3])  # sensor frame on the plate (m, rad)
-
-
-def _R(rx, ry, rz):
-    """Rz Ry Rx, written out here by matrix products (not the package's expanded form)."""
-    cx, sx, cy, sy, cz, sz = (math.cos(rx), math.sin(rx), math.cos(ry), math.sin(ry),
-                              math.cos(rz), math.sin(rz))
-    Rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
-    Ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
-    Rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
-    return Rz @ Ry @ Rx
 
 
 def _tensor(v):
@@ -57,9 +52,9 @@ def _wrench(t_fine, q_fine, step):
     of mass in world axes (finite differences of quaternion-free rotation matrices on the
     fine grid), every ``step``-th sample."""
     h = t_fine[1] - t_fine[0]
-    Rs = _R(*SENSOR[3:])
-    Rw = np.array([_R(*row[3:]) @ Rs for row in q_fine])
-    plate_R = np.array([_R(*row[3:]) for row in q_fine])
+    Rs = rotation_by_products(*SENSOR[3:])
+    Rw = np.array([rotation_by_products(*row[3:]) @ Rs for row in q_fine])
+    plate_R = np.array([rotation_by_products(*row[3:]) for row in q_fine])
     origin = q_fine[:, :3] + np.einsum("nij,j->ni", plate_R, SENSOR[:3])
     com_w = origin + np.einsum("nij,j->ni", Rw, COM)
     acc = np.gradient(np.gradient(com_w, h, axis=0), h, axis=0)
