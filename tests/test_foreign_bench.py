@@ -377,7 +377,7 @@ MEASURED_MATRIX = {"coulomb_friction.leg2"}
 ANCHOR_MISS = pytest.mark.xfail(
     reason="measured on bench A (2026-11-27): a 1.5 mm anchor error is taken by leg_offset, "
            "which ranks above kinematic_calibration; 6.5 noise units remain (docs/diagnosis.md)",
-    strict=False)
+    strict=True)
 
 
 @pytest.mark.parametrize("name,error", [
@@ -449,7 +449,7 @@ def matrix_case(folder: Path, label: str, seed: int = 31) -> dict:
 
 GAIN_MISS = pytest.mark.xfail(
     reason="measured on bench A (2026-11-27): actuator_lag.leg1 ranks above servo_gain.leg1; "
-           "3.3 noise units remain (docs/diagnosis.md)", strict=False)
+           "3.3 noise units remain (docs/diagnosis.md)", strict=True)
 
 
 @pytest.mark.parametrize("label", [
