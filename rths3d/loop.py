@@ -191,8 +191,8 @@ class _Group:
         self.monitor.reset()
         num_c, tr_c = self.num.compiled(), self.transfer.compiled()
         # a transfer system without a 1-D kernel may step its own compiled ranges
-        make = getattr(self.transfer, "closed_range", None)
-        closed = make(self) if num_c is not None and tr_c is None and make else None
+        closed = self.transfer.closed_range(self) if num_c is not None and tr_c is None \
+            else None
         path = "compiled" if num_c is not None and (tr_c is not None or closed) else "python"
         report = progress if callable(progress) else None
         every = control.every if control is not None else (500 if progress else self.N)

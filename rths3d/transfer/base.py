@@ -107,6 +107,12 @@ class TransferSystem(Protocol):
 
     def compiled(self) -> CompiledTransfer | None: ...
 
+    def closed_range(self, group: Any) -> Callable[[int, int], int] | None:
+        """A system without a 1-D kernel (:meth:`compiled` None) that steps the whole loop
+        in compiled ranges itself: ``run(n0, n1)`` for a loop group, returning the steps
+        done; None: the loop steps it from Python."""
+        ...
+
 
 TRANSFERS: dict[str, type] = {}
 """Registered transfer systems by kind."""

@@ -142,6 +142,10 @@ class ChainTransfer:
             self.stopped[:] = comp.stopped
             self.reasons = list(comp.reasons)
 
+    def closed_range(self, group: Any) -> None:
+        """A chain steps through its 1-D kernel (:meth:`compiled`) or from Python."""
+        return None
+
     def compiled(self) -> CompiledTransfer | None:
         part = self.part.compiled()
         comp = self.compensator.compiled()
