@@ -271,7 +271,7 @@ def write_report(diag: Diagnosis, result: RoundResult, out_dir: str | Path,
     for w in [*diag.warnings, *(warnings or [])]:
         lines.append(f"- warning: {w}")
     acc = ", ".join(f"{k} = {v:.4g}" for k, v in diag.accepted.items()) or "none"
-    for r in getattr(diag, "revisions", []):
+    for r in diag.revisions:
         lines.append("- description revised: " + "; ".join(
             f"`{k}`: {v['stated']!r} → {v['revised']!r}" for k, v in r["changes"].items()))
     lines += [f"- accepted effects: {acc}",

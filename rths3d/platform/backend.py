@@ -114,6 +114,8 @@ class _OneSim:
         self.m = model
         self.d = mujoco.MjData(model)
         self.models = None
+        self.batch = None
+        """No ``mujoco.batch.Batch``: one ``MjData`` (``d``) stepped in place."""
         self._warn = self.d.warning[_BADQACC]
         self._seen = self._warn.number
 

@@ -45,7 +45,7 @@ def compiled_ok(sim: PlatformBatch) -> bool:
     a ``mujoco.batch.Batch`` (its own model copies)."""
     if sim.leg_hook is not None or sim.setpoint_chain.noise is not None:
         return False
-    inner = getattr(sim.batch, "batch", None)
+    inner = sim.batch.batch
     return inner is None or not getattr(inner, "_expanded", {})
 
 
@@ -55,7 +55,7 @@ def _mj_tuple(sim: PlatformBatch, forward: bool) -> tuple:
 
     K = sim.nsim
     cfg = sim.config
-    inner = getattr(sim.batch, "batch", None)
+    inner = sim.batch.batch
     if inner is None:  # one MjData: stepped in place
         d = sim.batch.d
         models, datas, rows = [sim.model], [d], False
@@ -66,7 +66,7 @@ def _mj_tuple(sim: PlatformBatch, forward: bool) -> tuple:
     else:
         ms = inner.models
         models = list(ms) if isinstance(ms, list | tuple) else [ms or sim.model] * K
-        if not hasattr(sim, "_scratch") or len(sim._scratch) != K or any(
+        if len(sim._scratch) != K or any(
                 s[0] is not m for s, m in zip(sim._scratch, models, strict=True)):
             sim._scratch = [(m, mujoco.MjData(m)) for m in models]
         datas = [s[1] for s in sim._scratch]
@@ -198,7 +198,7 @@ def platform_args(sim: PlatformBatch) -> tuple:
            np.zeros_like(sim._sp), sim._off, sim._bias, sim._cprev, sim._cnew, sim._zoh,
            sim._inv_dt, sim._a0, sim._s0, sim._ahead, sim._Lnext)
     live = (sim._ctrl, sim._act, sim.live_qpos, sim._legs_q, sim._legs_v, sim._legs_f,
-            sim.leg_force_sensor, sim._fts_quat, getattr(sim, "_live_R", sim._fts_R))
+            sim.leg_force_sensor, sim._fts_quat, sim._live_R)
     has_c = sim._fts_C is not None
     C = sim._fts_C if has_c else np.zeros((1, 6, 6))
     fts = (has_c, C, sim._fts_b, sim._raw_force, sim._raw_torque, sim.fts_reading,

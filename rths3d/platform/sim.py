@@ -264,10 +264,11 @@ class PlatformBatch:
             self._fts_C = None
             self._fts_b = np.zeros((nsim, 6))
         self._fts_R = self._xmat[:, self.ids.fts_site]
+        self._live_R = self._fts_R  # the FTS orientation now (the sampled one may lag)
+        self._scratch: list = []  # (model, MjData) per test of a compiled range's batch
         if self._any_start:
             # sample buffers: a start-sampled test keeps the state before its step's
             # set-point acts, an end-sampled one the state after
-            self._live_R = self._fts_R
             self.plate_qpos = np.zeros((nsim, 7))
             self.meas_legs_q = np.zeros((nsim, 6))
             self.meas_legs_f = np.zeros((nsim, 6))

@@ -100,7 +100,7 @@ def screen_revisions(diag: Any) -> list[tuple[str, Revision, dict[str, np.ndarra
 
 
 def _run_all(diag: Any, items: list, one) -> list:
-    T = max(1, min(int(getattr(diag, "threads", 1)), len(items)))
+    T = max(1, min(diag.threads, len(items)))
     if T > 1:
         with ThreadPoolExecutor(T, thread_name_prefix="rths3d-revision") as pool:
             return list(pool.map(one, items))
