@@ -135,9 +135,13 @@ so that a scene that does not use them reads and writes as before."""
 
 
 HOLD = ("ramp", "zoh")
+"""Set-point holds over an interface step: first-order (ramp) or zero-order."""
 SAMPLE = ("end", "start")
+"""Sampling instants of the bench's channels within an interface step."""
 FEEDFORWARD = ("backward", "central", "none")
+"""Difference forms of the velocity feed-forward."""
 GRAVITY = ("nominal", "none")
+"""Sources of the gravity compensation: the nominal model, or none."""
 
 
 @dataclass(frozen=True)

@@ -31,13 +31,11 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..config import FEEDFORWARD, HOLD, SAMPLE
 from ..errors import ConfigError
 from .geometry import DEFAULT_GEOMETRY, StewartGeometry
 
 __all__ = [
-    "FEEDFORWARDS",
-    "HOLDS",
-    "SAMPLES",
     "ActuatorConfig",
     "PlatformConfig",
     "build_model",
@@ -45,14 +43,6 @@ __all__ = [
     "model_xml",
     "predicted_delay",
 ]
-
-
-HOLDS = ("ramp", "zoh")
-"""Set-point holds over an interface step: first-order (ramp) or zero-order."""
-SAMPLES = ("end", "start")
-"""Sampling instants of the bench's channels within an interface step."""
-FEEDFORWARDS = ("backward", "central", "none")
-"""Difference forms of the velocity feed-forward."""
 
 
 def _check(name: str, value: float, ok: bool, limit: str) -> None:
@@ -117,8 +107,8 @@ class ActuatorConfig:
     feedforward: str = "backward"
 
     def __post_init__(self) -> None:
-        for name, allowed in (("hold", HOLDS), ("sample", SAMPLES),
-                              ("feedforward", FEEDFORWARDS)):
+        for name, allowed in (("hold", HOLD), ("sample", SAMPLE),
+                              ("feedforward", FEEDFORWARD)):
             v = getattr(self, name)
             _check(f"controller.{name}", v, v in allowed, "one of " + " | ".join(allowed))
         _check("actuator.kp", self.kp, math.isfinite(self.kp) and self.kp > 0,
