@@ -28,8 +28,10 @@ def test_threaded_round_equals_one_batch_and_reports_its_time(record, tmp_path):
     """Two threads (the screening's 7 replays and the refits' cut into two batches each)
     against one thread (one batch): every replayed channel equal to the last bit, the same
     candidates in the same order with the same fitted values; the round's stages timed."""
-    one = Diagnosis(record, candidates=CANDIDATES, nthread=1, refit=4)
-    two = Diagnosis(record, candidates=CANDIDATES, nthread=2, refit=4)
+    # the effects' round alone: the description's revisions (screened every round by
+    # default) are tested in test_description_candidates.py
+    one = Diagnosis(record, candidates=CANDIDATES, nthread=1, refit=4, descriptions=())
+    two = Diagnosis(record, candidates=CANDIDATES, nthread=2, refit=4, descriptions=())
     assert (one.threads, two.threads) == (1, 2)
     sets = [{c: one._probe(c)} for c in CANDIDATES if c != "fts_calibration"]
     a, b = one.outputs(sets), two.outputs(sets)
