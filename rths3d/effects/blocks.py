@@ -28,7 +28,7 @@ from numba import types
 
 __all__ = ["BLOCK_SIG", "Block", "Chain", "DelayBlock", "GainBlock", "LTIBlock", "LagBlock",
            "NoiseBlock", "OffsetBlock", "PlayBlock", "RateLimitBlock", "block_kernel", "njit",
-           "run_chain", "run_blocks"]
+           "padded_kernels", "run_chain", "run_blocks"]
 
 # chains call their blocks' kernels as first-class functions (one compiled caller for every
 # sequence of blocks); numba still labels that feature experimental
@@ -343,6 +343,18 @@ def run_chain(fns, ps, ss, u, y, w):
 
 
 _EMPTY = np.zeros((0, 0))
+
+
+def padded_kernels(fns: tuple, params: tuple, states: tuple) -> tuple[tuple, tuple, tuple]:
+    """A chain's kernels and their arguments padded with pass-through blocks to 1, 4, 8, …
+    blocks: a compiled caller is specialised per number of blocks (≈ 40 s of compilation
+    each for the platform's range kernels), and a pass-through block costs one copy of the
+    rows per step (run_chain hands it y → y, bit for bit)."""
+    n = len(fns)
+    m = 1 if n <= 1 else max(4, 1 << (n - 1).bit_length())
+    pad = m - n
+    return (fns + (_pass_kernel,) * pad, params + (_EMPTY,) * pad,
+            states + (_EMPTY,) * pad)
 
 
 class Chain:

@@ -28,7 +28,8 @@ import numba
 import numpy as np
 from numba import literal_unroll, types
 
-from ..effects.blocks import njit, run_chain
+from ..effects.blocks import njit, padded_kernels, run_chain
+from ..jit import AnyLayout
 from ..numerical._kernels import linear_step
 from ..safety import check_command, check_measured
 from ..stepping import record_row
@@ -40,6 +41,7 @@ from .compiled import (
     _mj_getState,
     _mj_step,
     _voidp,
+    flat,
     physics,
     read_fts,
 )
@@ -156,10 +158,10 @@ def closed_range(n0, n1, w0, k0, num, mon, rec, comp, io, sens, znz, hist, plat)
     t0, dt, h = mj[14], mj[15], mj[16]
     run, warm = mj[17], mj[18]
     K = z.shape[0]
-    zr, zdr, zmr, ur = z.reshape(-1), zd.reshape(-1), zm.reshape(-1), u.reshape(-1)
-    fmr, frr = fm.reshape(-1), fraw.reshape(-1)
-    yr = y.reshape(-1)
-    spr = sp.reshape(-1)
+    zr, zdr, zmr, ur = flat(z), flat(zd), flat(zm), flat(u)
+    fmr, frr = flat(fm), flat(fraw)
+    yr = flat(y)
+    spr = flat(sp)
     for n in range(n0, n1):
         linear_step(Ad, Bf, P, n, fm, s, s_next, Czx, Czv, Cx, z, zd, x)
         if check_command(z, zd, x, lim_z, lim_v, lim_x, active, code, dof, value, row, n):
@@ -233,6 +235,10 @@ def closed_range(n0, n1, w0, k0, num, mon, rec, comp, io, sens, znz, hist, plat)
     return n1 - n0, 0
 
 
+# one specialisation per structure of the arguments, whatever the views' layouts (rths3d.jit)
+_CLOSED = AnyLayout(closed_range)
+
+
 def closed_ok(transfer: Any) -> bool:
     """Whether the compiled closed loop can step this Stewart transfer system: a compensator
     with a kernel (fixed schemes, per interface DOF), inverse kinematics of the poses (no
@@ -301,6 +307,7 @@ class ClosedRange:
         self.parts = [(int(bounds[i]), int(bounds[i + 1])) for i in range(c)]
         self.static = [self._static(a, b) for a, b in self.parts]
         self.pool = _pool() if c > 1 else None
+        self._entries: list[Any] = [None] * c  # the compiled closed_range per chunk
 
     def _plat(self) -> tuple:
         sim = self.sim
@@ -340,7 +347,8 @@ class ClosedRange:
         smp = (smp[0][sl], smp[1], *(x[sl] for x in smp[2:]))
         rd = tuple(x[sl] for x in rd)
         sen = tr.sensor
-        sens = (sen.fns, _rows(sen.params, a, b, nd), _rows(sen.states, a, b, nd), sen.empty)
+        fns, ps, ss = padded_kernels(sen.fns, sen.params, sen.states)
+        sens = (fns, _rows(ps, a, b, nd), _rows(ss, a, b, nd), sen.empty)
         zn = tr._znoise
         znz = (True, (type(zn).kernel,), (zn.params[a * nd:b * nd],),
                (zn.state[a * nd:b * nd],)) if zn is not None else \
@@ -374,7 +382,11 @@ class ClosedRange:
         while todo:
             def one(i: int) -> tuple[int, int]:
                 n = pos[i]
-                return closed_range(n, n1, n0, k0 + n - n0, *calls[i][1])
+                args = (n, n1, n0, k0 + n - n0, *calls[i][1])
+                run = self._entries[i]
+                if run is None:  # typed once: the arguments keep their types between calls
+                    run = self._entries[i] = _CLOSED.entry(*args)
+                return run(*args)
 
             res = list(self.pool.map(one, todo)) if self.pool is not None and len(todo) > 1 \
                 else [one(i) for i in todo]

@@ -84,6 +84,19 @@ def _f64p(typingctx, addr):
     return sig, codegen
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def flat(a):
+    """The rows of a (K, n) float array that is contiguous in memory, as one (K·n,) view.
+
+    The range kernels are compiled for arrays of any layout (:mod:`rths3d.jit`), for which
+    numba has no ``reshape``; the arrays flattened here are the loop's own contiguous
+    buffers, and a strided one is refused rather than misread."""
+    K, n = a.shape
+    if (K > 1 and a.strides[0] != n * 8) or (n > 1 and a.strides[1] != 8):
+        raise ValueError("flat: a strided array")
+    return numba.carray(_f64p(a.ctypes.data), K * n)
+
+
 # the MuJoCo tuple ``mj`` of run_range (built by rths3d.platform.sim.PlatformBatch):
 # 0 model addresses (K,), 1 data addresses (K,), 2 whether tests live in batch state rows,
 # 3 the state rows (K, nstate), 4 their signature, 5 output addresses (K, F) of the bound
@@ -191,8 +204,8 @@ def run_range(n0, n1, k0, P, Pn, run, geo, ctl, chain, mj, live, fts, smp, rec):
     has_c, C, bo, sf, st, reading, of, ot = fts
     t0, dt, h = mj[14], mj[15], mj[16]
     K = P.shape[1]
-    yr = y.reshape(-1)
-    spr = sp.reshape(-1)
+    yr = flat(y)
+    spr = flat(sp)
     for n in range(n0, n1):
         if ahead:
             leg_lengths_of(Pn[n], b, p, hh, Lnext)

@@ -125,6 +125,7 @@ def track_batch(sim: PlatformBatch, poses: np.ndarray, idx: np.ndarray, *,
     DOFs of ``z``/``f``. ``lazy``: skip the end-of-step ``mj_forward`` and read each step's
     forces at its successor's start (exact for a ramped set-point; one evaluation per step
     less). ``compiled``: compiled ranges where :func:`compiled_ok` (else Python)."""
+    from ..jit import AnyLayout
     from .compiled import run_range
 
     P = np.asarray(poses, dtype=float)
@@ -146,6 +147,8 @@ def track_batch(sim: PlatformBatch, poses: np.ndarray, idx: np.ndarray, *,
     args = None
     if compiled and compiled_ok(sim):
         args = _range_args(sim, P, Pn, idx, rec, z, f, lazy)
+        # one specialisation per structure of the arguments (rths3d.jit), typed once here
+        run = AnyLayout(run_range).entry(0, N - 1, sim.k, *args)
     if N > 1:
         rec.stop[sim.stopped] = 1  # stopped before the first step (e.g. while settling)
     r = 1
@@ -158,7 +161,7 @@ def track_batch(sim: PlatformBatch, poses: np.ndarray, idx: np.ndarray, *,
             _python_row(sim, r, lazy, idx, rec, z, f)
             r += 1
         else:
-            done, code = run_range(r - 1, N - 1, sim.k, *args)
+            done, code = run(r - 1, N - 1, sim.k, *args)
             sim.k += done
             r += done
             if code == 1:  # a command out of limits: the reference step freezes the test
@@ -191,8 +194,10 @@ def platform_args(sim: PlatformBatch) -> tuple:
     """The platform's argument groups of the compiled kernels (views of ``sim``'s arrays):
     (geometry, controller, set-point chain, live MuJoCo views, FTS, sampling); the MuJoCo
     group is the caller's (:func:`_mj_tuple` and what its kernel adds)."""
+    from ..effects.blocks import padded_kernels
+
     ch = sim.setpoint_chain
-    chain = (ch.fns, ch.params, ch.states, ch._w, ch.empty)
+    chain = (*padded_kernels(ch.fns, ch.params, ch.states), ch._w, ch.empty)
     geo = (sim._b, sim._p, sim._hh, sim._home, sim._half, sim._vdt, sim._vmax, sim._fmax)
     ctl = (sim._ffg, sim._ffn, sim._Lprev, sim._L, np.zeros_like(sim._L), sim._sp,
            np.zeros_like(sim._sp), sim._off, sim._bias, sim._cprev, sim._cnew, sim._zoh,
