@@ -16,9 +16,13 @@ def test_skips_are_counted_by_reason_at_the_end(tmp_path) -> None:
     tests = ["tests/test_lti.py::test_benchmark_records_pga",
              "tests/test_lti.py::test_tustin_coefficients_equal_benchmark_spec",
              "tests/test_lti.py::test_pi_coefficients_are_kp_plus_minus_ki_dt_over_2"]
+    # the subprocess is a plain run: options given to this run (PYTEST_ADDOPTS, a worker's
+    # variables) would change its summary lines
+    env = {k: v for k, v in os.environ.items()
+           if k != "PYTEST_ADDOPTS" and not k.startswith("PYTEST_XDIST")}
     p = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
                         *tests], cwd=REPO, capture_output=True, text=True, timeout=300,
-                       env={**os.environ, "RTHS3D_SHARED": str(tmp_path / "absent")})
+                       env={**env, "RTHS3D_SHARED": str(tmp_path / "absent")})
     assert p.returncode == 0, p.stdout + p.stderr
     lines = p.stdout.strip().splitlines()
     assert lines[-1].startswith("1 passed, 2 skipped")
