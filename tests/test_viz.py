@@ -323,6 +323,19 @@ def test_viewer_rejects_bad_options(record):
         Viewer(buf, exaggeration=0.5)
 
 
+def _until(condition, timeout_s: float) -> None:
+    """Poll ``condition`` every 50 ms until it holds or ``timeout_s`` passes (the test's
+    assertions then say what was missing)."""
+    end = time.monotonic() + timeout_s
+    while not condition() and time.monotonic() < end:
+        time.sleep(0.05)
+
+
+def _plate_moves(msgs: list[dict]) -> int:
+    return sum(m["type"] == "SetPositionMessage" and m["name"] == "/platform/top"
+               for m in msgs)
+
+
 def _uplot_uuid(msgs: list[dict], title_start: str) -> str:
     """uuid of the uPlot panel whose title starts with ``title_start``."""
     for m in msgs:
@@ -346,22 +359,22 @@ def test_headless_client_sees_scene_and_plot_updates_while_test_runs():
     v = run.view_process(port=0, rate=30).start()
     try:
         with HeadlessClient(v.port) as client:  # its connection starts the paused run
-            time.sleep(2.5)
+            # waited for by what it shows, not by the clock: a cold start compiles the loop
+            _until(lambda: run._buffers and run._buffers[0].n >= 1500, 180.0)
             live = run._buffers[0]
             n_written = live.n
             running = run.running
             msgs = client.snapshot()
             # The page's "Run / restart" with another transfer system: the view follows.
             v._handle(("restart", "lti", {"numerical.k": 5000.0}))
-            time.sleep(1.5)
+            _until(lambda: _plate_moves(client.snapshot()[len(msgs):]) >= 5, 180.0)
             after = client.snapshot()[len(msgs):]
             status = run.status()
     finally:
         v.stop()
         run.close()
     assert "(lti)" in status
-    assert sum(m["type"] == "SetPositionMessage" and m["name"] == "/platform/top"
-               for m in after) >= 5
+    assert _plate_moves(after) >= 5
     assert running and 500 < n_written < live.data.shape[0]  # watched mid-test
     plate = [m["position"] for m in msgs
              if m["type"] == "SetPositionMessage" and m["name"] == "/platform/top"]
