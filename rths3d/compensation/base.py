@@ -38,12 +38,12 @@ import numba
 import numpy as np
 from numba import njit
 
-from ..effects.blocks import F1, F2
+from ..effects.blocks import F1, F2, ready
 from ..errors import ConfigError, SafetyStop
 
 __all__ = [
     "COMPENSATORS", "COMP_SIG", "BaseCompensator", "Compensator", "CompensatorConfig",
-    "WatchConfig", "build", "comp_kernel", "compensator_class", "compensator_names",
+    "WatchConfig", "build", "comp_kernel", "comp_ready", "compensator_class", "compensator_names",
     "config_from_dict", "register",
 ]
 
@@ -79,8 +79,16 @@ state (R, S), z (R,), ż (R,), z_meas (R,), u (R,)) over R = K·n rows."""
 
 
 def comp_kernel(fn: Any) -> Any:
-    """Compile ``fn`` as a compensator kernel (:data:`COMP_SIG`, cached)."""
-    return numba.njit(COMP_SIG, cache=True, nogil=True)(fn)
+    """``fn`` as a compensator kernel, compiled for :data:`COMP_SIG` (cached) on first use:
+    its compensator's constructor calls :func:`comp_ready` (as block kernels,
+    :func:`rths3d.effects.blocks.block_kernel`, importing loads nothing)."""
+    return numba.njit(cache=True, nogil=True)(fn)
+
+
+def comp_ready(kernel: Any) -> Any:
+    """``kernel`` (a :func:`comp_kernel`) compiled for :data:`COMP_SIG` and closed to other
+    signatures."""
+    return ready(kernel, COMP_SIG)
 
 
 COMPENSATORS: dict[str, type[BaseCompensator]] = {}

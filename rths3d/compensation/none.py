@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .base import BaseCompensator, CompensatorConfig, comp_kernel, register
+from .base import BaseCompensator, CompensatorConfig, comp_kernel, comp_ready, register
 
 
 @comp_kernel
@@ -36,4 +36,4 @@ class NoCompensation(BaseCompensator):
 
     def compiled(self):
         R = self.K * self.n
-        return (copy_kernel,), np.zeros((R, 0)), np.zeros((R, 0))
+        return (comp_ready(copy_kernel),), np.zeros((R, 0)), np.zeros((R, 0))

@@ -8,7 +8,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .base import BaseCompensator, CompensatorConfig, check, comp_kernel, register
+from .base import BaseCompensator, CompensatorConfig, check, comp_kernel, comp_ready, register
 
 
 @comp_kernel
@@ -63,6 +63,7 @@ class PolynomialCompensator(BaseCompensator):
 
     def __init__(self, config: PolynomialConfig, K: int, n: int, dt: float):
         super().__init__(config, K, n, dt)
+        comp_ready(polynomial_kernel)
         self.order = int(config.order)
         self.w = lagrange_weights(config.tau, dt, self.order)
         self._tau = np.full((K, n), float(config.tau))

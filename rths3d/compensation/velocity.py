@@ -13,6 +13,7 @@ from .base import (
     channel_values,
     check,
     comp_kernel,
+    comp_ready,
     register,
 )
 
@@ -48,6 +49,7 @@ class VelocityCompensator(BaseCompensator):
 
     def __init__(self, config: VelocityConfig, K: int, n: int, dt: float):
         super().__init__(config, K, n, dt)
+        comp_ready(velocity_kernel)
         self.tau = channel_values("velocity.tau", config.tau, K, n, per="test")
         self._params = np.array(self.tau.reshape(-1, 1))  # writable (a kernel argument)
         self._state = np.zeros((K * n, 0))

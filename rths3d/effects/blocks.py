@@ -28,7 +28,7 @@ from numba import types
 
 __all__ = ["BLOCK_SIG", "Block", "Chain", "DelayBlock", "GainBlock", "LTIBlock", "LagBlock",
            "NoiseBlock", "OffsetBlock", "PlayBlock", "RateLimitBlock", "block_kernel", "njit",
-           "padded_kernels", "run_chain", "run_blocks"]
+           "padded_kernels", "ready", "run_chain", "run_blocks"]
 
 # chains call their blocks' kernels as first-class functions (one compiled caller for every
 # sequence of blocks); numba still labels that feature experimental
@@ -45,8 +45,22 @@ shape: (params, state, z_from, z_to, F)."""
 
 
 def block_kernel(fn: Any) -> Any:
-    """Compile ``fn`` as a block kernel (:data:`BLOCK_SIG`, cached)."""
-    return numba.njit(BLOCK_SIG, cache=True, nogil=True)(fn)
+    """``fn`` as a block kernel, compiled for :data:`BLOCK_SIG` on first use
+    (:func:`ready`): loading a compiled kernel from the on-disk cache costs ≈ 0.1 s, and
+    importing the library (every command line call, every sweep worker) loaded all of them
+    whether it stepped a block or not."""
+    return numba.njit(cache=True, nogil=True)(fn)
+
+
+def ready(kernel: Any, signature: Any = BLOCK_SIG) -> Any:
+    """``kernel`` (a :func:`block_kernel`, or another kernel of one fixed signature)
+    compiled for ``signature`` and closed to others, as a kernel with its signature given
+    up front is: one machine code, a first-class function the compiled chains can hold.
+    Every user of a kernel calls this first (a block's constructor does)."""
+    if not kernel.signatures:
+        kernel.compile(signature)
+        kernel.disable_compile()
+    return kernel
 
 
 def _rows(value: Any, R: int) -> np.ndarray:
@@ -70,6 +84,7 @@ class Block:
     uses_noise: ClassVar[bool] = False
 
     def __init__(self, K: int, n: int, params: np.ndarray, state0: np.ndarray):
+        ready(type(self).kernel)
         self.K, self.n = int(K), int(n)
         self.params = np.ascontiguousarray(params, dtype=float)
         self.state0 = np.ascontiguousarray(state0, dtype=float)
@@ -350,6 +365,7 @@ def padded_kernels(fns: tuple, params: tuple, states: tuple) -> tuple[tuple, tup
     blocks: a compiled caller is specialised per number of blocks (≈ 40 s of compilation
     each for the platform's range kernels), and a pass-through block costs one copy of the
     rows per step (run_chain hands it y → y, bit for bit)."""
+    ready(_pass_kernel)
     n = len(fns)
     m = 1 if n <= 1 else max(4, 1 << (n - 1).bit_length())
     pad = m - n
@@ -377,7 +393,7 @@ class Chain:
             self.params = tuple(b.params for b in self.blocks)
             self.states = tuple(b.state for b in self.blocks)
         else:
-            self.fns, self.params, self.states = (_pass_kernel,), (_EMPTY,), (_EMPTY,)
+            self.fns, self.params, self.states = (ready(_pass_kernel),), (_EMPTY,), (_EMPTY,)
         self._y = np.zeros((self.K, self.n))
         self._w = np.zeros(self.K * self.n)
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..effects.blocks import block_kernel
+from ..effects.blocks import block_kernel, ready
 
 
 @block_kernel
@@ -123,6 +123,8 @@ class Specimen1D:
         self.dt = float(dt)
         self.substeps = int(substeps)
         self.method = method
+        if method == "euler":
+            ready(euler_kernel)
         # state rows [x, ẋ, previous mount position]; x, v are views of it
         self.state = np.zeros((K, 3))
         self.x = self.state[:, 0]
