@@ -74,3 +74,37 @@ def test_flat_views_contiguous_rows_and_refuses_strided_ones():
     np.testing.assert_array_equal(a, np.arange(6.0).reshape(2, 3) * 2)
     with pytest.raises(ValueError, match="strided"):
         double_rows(np.zeros((2, 6))[:, :3])
+
+
+def test_ready_compiles_a_kernel_once_when_threads_race_for_it():
+    """Threads that build blocks at once (the diagnosis' replays) all get the one compiled
+    kernel; none meets the closed dispatcher (compile() after disable_compile() raises)."""
+    import threading
+
+    from rths3d.effects.blocks import BLOCK_SIG, block_kernel, ready
+
+    def _scale(p, s, u, y, w):
+        for r in range(u.shape[0]):
+            y[r] = p[r, 0] * u[r]
+
+    kernel = block_kernel(_scale)
+    start = threading.Barrier(6)
+    errors: list[BaseException] = []
+
+    def build():
+        start.wait()
+        try:
+            ready(kernel)
+        except BaseException as e:  # noqa: BLE001 - the race's failure is what is counted
+            errors.append(e)
+
+    threads = [threading.Thread(target=build) for _ in range(6)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert errors == []
+    assert kernel.signatures == [BLOCK_SIG.args]
+    y = np.zeros(2)
+    kernel(np.array([[2.0], [3.0]]), np.zeros((2, 0)), np.array([1.0, -1.0]), y, np.zeros(2))
+    np.testing.assert_array_equal(y, [2.0, -3.0])

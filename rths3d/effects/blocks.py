@@ -18,6 +18,7 @@ by one compiled caller (:func:`run_chain`), so a new block needs no new loop cod
 from __future__ import annotations
 
 import math
+import threading
 import warnings
 from collections.abc import Sequence
 from typing import Any, ClassVar
@@ -52,14 +53,21 @@ def block_kernel(fn: Any) -> Any:
     return numba.njit(cache=True, nogil=True)(fn)
 
 
+_READY = threading.Lock()
+
+
 def ready(kernel: Any, signature: Any = BLOCK_SIG) -> Any:
     """``kernel`` (a :func:`block_kernel`, or another kernel of one fixed signature)
     compiled for ``signature`` and closed to others, as a kernel with its signature given
     up front is: one machine code, a first-class function the compiled chains can hold.
     Every user of a kernel calls this first (a block's constructor does)."""
     if not kernel.signatures:
-        kernel.compile(signature)
-        kernel.disable_compile()
+        # threads build blocks at once (the diagnosis' replays): one compiles, the others
+        # find it compiled (compile() after disable_compile() raises)
+        with _READY:
+            if not kernel.signatures:
+                kernel.compile(signature)
+                kernel.disable_compile()
     return kernel
 
 
