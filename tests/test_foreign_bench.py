@@ -447,15 +447,26 @@ def matrix_case(folder: Path, label: str, seed: int = 31) -> dict:
             "error_val": validation_error(diag)}
 
 
-GAIN_MISS = pytest.mark.xfail(
-    reason="measured on bench A (2026-11-27): actuator_lag.leg1 ranks above servo_gain.leg1; "
-           "3.3 noise units remain (docs/diagnosis.md)", strict=True)
+# the matrix's measured misses (the whole matrix on the idle machine, 2026-11-27)
+MATRIX_MISSES = {
+    "servo_gain.leg1": "actuator_lag.leg1 ranks above servo_gain.leg1; 3.3 noise units remain "
+                       "(docs/diagnosis.md)",
+    "leg_offset.leg3": "found first, but 4.10 noise units remain",
+    "kinematic_calibration": "leg_offset.leg2 ranks first; 6.33 noise units remain",
+    "fixture_mass": "fts_calibration ranks first; 1.36 noise units remain",
+}
+
+
+def _miss(label: str) -> list:
+    if label not in MATRIX_MISSES:
+        return []
+    return [pytest.mark.xfail(reason=f"measured on bench A (2026-11-27): {MATRIX_MISSES[label]}",
+                              strict=True)]
 
 
 @pytest.mark.parametrize("label", [
     "coulomb_friction.leg2",
-    *[pytest.param(k, marks=[pytest.mark.slow, *([GAIN_MISS] if k == "servo_gain.leg1"
-                                                 else []),
+    *[pytest.param(k, marks=[pytest.mark.slow, *_miss(k),
                              *([] if k in MEASURED_MATRIX else [FULL])])
       for k in MATRIX if k != "coulomb_friction.leg2"]])
 def test_matrix_effect_on_a_foreign_bench(tmp_path, label):
