@@ -47,16 +47,15 @@ def _calls_functions(t: types.BaseTuple) -> bool:
                for x in t.types)
 
 
-def kernel_type(value: Any, t: types.Type | None = None) -> types.Type:
-    """The numba type :class:`AnyLayout` compiles ``value`` as (module docstring)."""
-    t = typeof(value) if t is None else t
+def kernel_type(t: types.Type) -> types.Type:
+    """The numba type :class:`AnyLayout` compiles an argument of type ``t`` as (module
+    docstring)."""
     if isinstance(t, types.Array):
         return t.copy(layout="A", readonly=False)
     if isinstance(t, types.BaseTuple) and not isinstance(t, types.BaseNamedTuple):
         if _calls_functions(t):  # arguments of compiled signatures: as they are
             return t
-        return types.BaseTuple.from_types(
-            [kernel_type(v, ti) for v, ti in zip(value, t.types, strict=True)])
+        return types.BaseTuple.from_types([kernel_type(x) for x in t.types])
     return t
 
 
@@ -75,7 +74,7 @@ class AnyLayout:
         self.__name__ = dispatcher.__name__
 
     def entry(self, *args: Any) -> Any:
-        sig = tuple(kernel_type(a) for a in args)
+        sig = tuple(kernel_type(typeof(a)) for a in args)
         fn = self._entries.get(sig)
         if fn is None:
             fn = self._entries[sig] = self.dispatcher.compile(sig)

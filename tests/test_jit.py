@@ -44,7 +44,7 @@ def test_groups_of_compiled_functions_keep_their_contiguous_arrays():
     g = GainBlock(1, 2, gain=2.0)
     fns, ps, ss = padded_kernels((type(g).kernel,), (g.params,), (g.state,))
     chain = (fns, ps, ss, np.zeros(2))
-    t = kernel_type((chain, np.zeros((3, 3))))
+    t = kernel_type(numba.typeof((chain, np.zeros((3, 3)))))
     assert t.types[0] == numba.typeof(chain)  # as it is: its arrays go to compiled kernels
     assert t.types[1] == types.float64[:, :]  # elsewhere: any layout
 
