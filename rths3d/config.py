@@ -140,8 +140,9 @@ SAMPLE = ("end", "start")
 """Sampling instants of the bench's channels within an interface step."""
 FEEDFORWARD = ("backward", "central", "none")
 """Difference forms of the velocity feed-forward."""
-GRAVITY = ("nominal", "none")
-"""Sources of the gravity compensation: the nominal model, or none."""
+GRAVITY = ("nominal", "measured", "none")
+"""Sources of the gravity compensation: the nominal model, the bench's own holding forces at
+rest (measured), or none."""
 
 
 @dataclass(frozen=True)
@@ -153,8 +154,9 @@ class ControllerConfig:
     its channels, at the ``end`` of the interface step (today's) or at its ``start``;
     ``feedforward``: the velocity feed-forward's difference form, ``backward`` (today's),
     ``central`` or ``none``; ``gravity``: gravity compensation from the ``nominal`` model
-    (today's) or ``none``. The servo's gains, lag and transport delay (``kp``, ``kv``,
-    ``timeconst``, ``delay`` of ``[controller]``) are kept in :class:`TransferConfig`
+    (today's), from the holding forces ``measured`` on the bench at rest, or ``none``. The
+    servo's gains, lag and transport delay (``kp``, ``kv``, ``timeconst``, ``delay`` of
+    ``[controller]``) are kept in :class:`TransferConfig`
     (``transfer.kp`` …), where every consumer reads them. ``given``: the keys the scene's
     ``[controller]`` table set (``rths3d diagnose`` names them).
     """

@@ -313,7 +313,7 @@ def bench_scene_text(name: str, *, dofs: tuple[str, ...] = ("x", "y", "z", "rx",
     L += [f"{k} = {_toml(v)}" for k, v in (platform or {}).items()]
     L += ["", "# the leg controller: servo gains N/m and N·s/m, lag and delay s; conventions",
           "# hold ramp|zoh, sample end|start, feedforward backward|central|none, gravity "
-          "nominal|none",
+          "nominal|measured|none",
           "[controller]"]
     L += [f"{k} = {_toml(v)}" for k, v in (controller or {}).items()]
     L += ["", "[transfer]", 'kind = "stewart"', ""]

@@ -24,12 +24,14 @@ from foreign_bench import DOFS, WRENCH, ForeignBench, multisine  # noqa: E402
 
 def test_controller_candidate_offers_every_other_choice():
     """For today's defaults (ramp, end, backward, nominal) the controller candidate proposes
-    exactly the schema's other choices: zoh; start; central and none; gravity none."""
+    exactly the schema's other choices: zoh; start; central and none; gravity measured and
+    none."""
     revs = DESCRIPTIONS["controller"].revisions(load_scene("bench6"), {}, 1e-3)
     got = sorted((k, v) for r in revs for k, v in r.changes.items())
     assert got == sorted([("controller.hold", "zoh"), ("controller.sample", "start"),
                           ("controller.feedforward", "central"),
-                          ("controller.feedforward", "none"), ("controller.gravity", "none")])
+                          ("controller.feedforward", "none"),
+                          ("controller.gravity", "measured"), ("controller.gravity", "none")])
     assert all(r.k == 0 for r in revs)  # a discrete choice fits no parameter
     assert all(is_revision(PREFIX + r.label) and not is_revision(r.label) for r in revs)
 

@@ -96,6 +96,9 @@ def test_zoh_equals_a_held_setpoint_loop_written_here():
     m = build_model(cfg)
     d = mujoco.MjData(m)
     mujoco.mj_resetData(m, d)
+    # the bench starts at rest where its servos hold the weight (here uncompensated: sagged);
+    # that configuration, from a batch that does not settle, is this loop's start
+    d.qpos[:] = PlatformBatch(cfg, nsim=1, settle=0.0).batch.bind("qpos")[0]
     mujoco.mj_step(m, d, 50)  # the batch's 0.05 s settle at 1 ms
     home = cfg.geometry.home_leg_lengths()
     L = _ik(cfg, poses)

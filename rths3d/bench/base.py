@@ -52,7 +52,9 @@ def platform_config(scene: Scene, substeps: int | None = None) -> PlatformConfig
     t, c, p = scene.transfer, scene.controller, scene.platform
     act = ActuatorConfig(kp=t.kp, kv=t.kv, timeconst=t.timeconst, delay=t.delay,
                          velocity_ff=t.velocity_ff and c.feedforward != "none",
-                         gravity_comp=c.gravity == "nominal", hold=c.hold, sample=c.sample,
+                         gravity_comp=c.gravity != "none",
+                         gravity_source="measured" if c.gravity == "measured" else "nominal",
+                         hold=c.hold, sample=c.sample,
                          feedforward=c.feedforward)
     return PlatformConfig(geometry=p.geometry if p.geometry is not None else DEFAULT_GEOMETRY,
                           actuator=act, dt=scene.dt,

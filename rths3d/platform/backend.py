@@ -11,7 +11,7 @@ import numpy as np
 
 from .model import PlatformConfig
 
-__all__ = ["StaticState", "static_state"]
+__all__ = ["StaticState", "assemble", "static_state"]
 
 _BADQACC = 5  # mujoco.mjtWarning.mjWARN_BADQACC
 _MAXVAL = 1e10  # mjMAXVAL: MuJoCo flags |qacc| above this (or NaN) as a bad acceleration
@@ -69,6 +69,61 @@ class _Ids:
         self.anchor_site = [model.site(f"plate_anchor{i}").id for i in range(6)]
         self.contiguous_slides = bool(np.all(np.diff(self.slide_qpos) ==
                                              self.slide_qpos[1] - self.slide_qpos[0]))
+
+
+def assemble(model, data, slides: np.ndarray, ids: _Ids | None = None, *,
+             tol: float = 1e-13, max_iter: int = 20) -> None:
+    """Put the closed chain, from the model's reference configuration (``qpos0``, the
+    plate at home), where leg i is extended by ``slides[i]`` (m): the plate pose whose leg
+    lengths are the home lengths plus ``slides`` (Newton iteration on the plate's
+    translation and rotation), the universal joints along the legs, the slides set — the
+    pose a leg set-point bias holds at rest, so the bench starts there instead of moving
+    to it while it settles. Writes ``data.qpos`` (legs and plate; the part's joints keep
+    ``qpos0``) and runs the kinematics. Tolerance ``tol`` on every leg length (m)."""
+    ids = ids or _Ids(model)
+    mujoco.mj_resetData(model, data)
+    mujoco.mj_kinematics(model, data)
+    cyl = [model.body(f"leg{i}_cyl").id for i in range(6)]
+    base = data.xpos[cyl].copy()  # the universal joints' centres (world)
+    R0 = data.xmat[cyl].reshape(6, 3, 3).copy()  # the cylinders' frames at u1 = u2 = 0
+    tip = data.site_xpos[ids.tip_site]
+    ell0 = np.linalg.norm(tip - base, axis=1)  # joint centre to tip at slide 0
+    p0 = data.xpos[ids.plate_body].copy()
+    Rp0 = data.xmat[ids.plate_body].reshape(3, 3).copy()
+    a = (data.site_xpos[ids.anchor_site] - p0) @ Rp0  # plate anchors, plate frame
+    target = ell0 + np.asarray(slides, dtype=float)
+    t = np.zeros(3)
+    R = Rp0.copy()
+    for _ in range(max_iter):
+        ra = a @ R.T
+        v = p0 + t + ra - base
+        L = np.linalg.norm(v, axis=1)
+        r = L - target
+        if np.max(np.abs(r)) < tol:
+            break
+        u = v / L[:, None]
+        J = np.hstack([u, np.cross(ra, u)])  # ∂L/∂(t, δφ), δφ a rotation in world axes
+        dx = np.linalg.solve(J, -r)
+        t += dx[:3]
+        quat = np.zeros(4)
+        mujoco.mju_axisAngle2Quat(quat, dx[3:] / (np.linalg.norm(dx[3:]) or 1.0),
+                                  float(np.linalg.norm(dx[3:])))
+        dR = np.zeros(9)
+        mujoco.mju_quat2Mat(dR, quat)
+        R = dR.reshape(3, 3) @ R
+    else:
+        raise RuntimeError(f"assemble: no plate pose within {tol:g} m of the leg lengths "
+                           f"{target} m after {max_iter} iterations")
+    qa = ids.plate_qpos
+    data.qpos[qa:qa + 3] = p0 + t
+    mujoco.mju_mat2Quat(data.qpos[qa + 3:qa + 7], R.ravel())
+    for i in range(6):
+        d = R0[i].T @ (v[i] / L[i])  # the leg's direction in its cylinder's frame
+        # the leg frame is Rx(u1) Ry(u2): its z axis (sin u2, −sin u1 cos u2, cos u1 cos u2)
+        data.qpos[model.jnt_qposadr[model.joint(f"leg{i}_u1").id]] = np.arctan2(-d[1], d[2])
+        data.qpos[model.jnt_qposadr[model.joint(f"leg{i}_u2").id]] = np.arcsin(d[0])
+        data.qpos[ids.slide_qpos[i]] = L[i] - ell0[i]
+    mujoco.mj_kinematics(model, data)
 
 
 def static_state(config: PlatformConfig, model, data, ids: _Ids | None = None) -> StaticState:

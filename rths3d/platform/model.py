@@ -76,6 +76,11 @@ class ActuatorConfig:
     gravity_comp:
         Add the static leg force at home divided by ``kp`` to the set-point so the platform
         does not sag under its own and the payload's weight.
+    gravity_source:
+        Where those forces come from: ``"nominal"`` (the controller's model of the bench,
+        today's) or ``"measured"`` (the holding forces of the bench itself over its own
+        gains, as a bench that offsets each leg until its encoder reads home under load:
+        no sag at rest even where the model is wrong).
     stroke, velocity_limit, force_limit:
         Override the geometry's total stroke (m), piston-speed limit (m/s) and actuator-force
         limit (N); ``None`` takes the geometry's values.
@@ -99,6 +104,7 @@ class ActuatorConfig:
     delay: float = 0.001
     velocity_ff: bool = True
     gravity_comp: bool = True
+    gravity_source: str = "nominal"
     stroke: float | None = None
     velocity_limit: float | None = None
     force_limit: float | None = None
@@ -108,7 +114,8 @@ class ActuatorConfig:
 
     def __post_init__(self) -> None:
         for name, allowed in (("hold", HOLD), ("sample", SAMPLE),
-                              ("feedforward", FEEDFORWARD)):
+                              ("feedforward", FEEDFORWARD),
+                              ("gravity_source", ("nominal", "measured"))):
             v = getattr(self, name)
             _check(f"controller.{name}", v, v in allowed, "one of " + " | ".join(allowed))
         _check("actuator.kp", self.kp, math.isfinite(self.kp) and self.kp > 0,

@@ -49,7 +49,15 @@ import numpy as np
 
 from ..effects.blocks import Block, Chain, DelayBlock, LagBlock
 from ..errors import ConfigError, SafetyStop
-from .backend import _MAXVAL, StaticState, _Ids, _ManySims, _OneSim, static_state
+from .backend import (
+    _MAXVAL,
+    StaticState,
+    _Ids,
+    _ManySims,
+    _OneSim,
+    assemble,
+    static_state,
+)
 from .kernels import (
     copy_fts,
     end_ramp,
@@ -354,23 +362,40 @@ class PlatformBatch:
         state_fields = {}
         statics = []
         nominal_static: dict[int, StaticState] = {}
+
+        def start(mk, k: int) -> None:
+            if np.any(self._bias[k]):
+                # a set-point bias the encoders do not see (the true geometry differs from
+                # the controller's): start where it holds the plate, as a bench at rest is
+                assemble(mk, d, self._bias[k], self.ids)
+            else:
+                mujoco.mj_resetData(mk, d)
+
         for k in range(self.nsim):
             mk = self.batch.get_model(k)
-            mujoco.mj_resetData(mk, d)
+            start(mk, k)
             st = static_state(self._cfgs[k], mk, d, self.ids)
             statics.append(st)
             nom = self._nominal[k]
+            if self._cfgs[k].actuator.gravity_source == "measured":
+                nom = None  # the true bench's own holding forces: its static equilibrium
             if nom is not None and nom is not mk:
                 if id(nom) not in nominal_static:
                     dn = mujoco.MjData(nom)
                     nominal_static[id(nom)] = static_state(self._cfgs[k], nom, dn)
-                    mujoco.mj_resetData(mk, d)
+                    start(mk, k)
                 comp = nominal_static[id(nom)]
             else:
                 comp = st
             if self._cfgs[k].actuator.gravity_comp:
                 offs[k] = comp.offsets * self._gscale[k]
             c0 = offs[k] + self._bias[k]
+            # the servos hold the true bench's weight where each slide is its set-point less
+            # its leg force over its own gain: start there (sagged where the compensation
+            # is not the true bench's), not at home with a transient through the record
+            rest = c0 - st.offsets
+            if np.max(np.abs(rest - d.qpos[self.ids.slide_qpos])) > 1e-12:
+                assemble(mk, d, rest, self.ids)
             d.ctrl[self.ids.act] = 0.0
             d.act[mk.actuator_actadr[self.ids.act]] = c0
             mujoco.mj_forward(mk, d)

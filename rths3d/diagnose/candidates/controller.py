@@ -1,7 +1,7 @@
 """The controller's conventions as description candidates: every other choice of the set-point
 hold (``ramp`` | ``zoh``), the sampling instant (``end`` | ``start``), the feed-forward's
 difference form (``backward`` | ``central`` | ``none``) and the gravity compensation
-(``nominal`` | ``none``), each one revision.
+(``nominal`` | ``measured`` | ``none``), each one revision.
 
 A choice among a few discrete alternatives fits no parameter: k = 0 in the held-out ΔIC.
 Where a convention and a fitted effect explain a record equally — a bench that samples at
@@ -23,7 +23,7 @@ CONVENTIONS: dict[str, tuple[str, ...]] = {
     "hold": ("ramp", "zoh"),
     "sample": ("end", "start"),
     "feedforward": ("backward", "central", "none"),
-    "gravity": ("nominal", "none"),
+    "gravity": ("nominal", "measured", "none"),
 }
 """The controller's discrete conventions and their choices ([controller] table)."""
 
