@@ -116,7 +116,8 @@ class RoundStages:
         est: dict[str, float] = {}
         gain: dict[str, float] = {}
         deltas: dict[str, np.ndarray] = {}
-        for lab, cand in cands.items():
+
+        def estimate(lab: str, cand: Candidate) -> None:
             rp = self._res(outs[lab])
             d = self._vec(rp, tr)
             dvec = rvec - d  # the change the trial makes, in noise units
@@ -124,7 +125,7 @@ class RoundStages:
             if not ok.all() or not np.any(dvec):
                 cand.note = "probe failed (the platform stopped)" if not ok.all() else \
                     "no effect on the measured channels"
-                continue
+                return
             dd = float(np.dot(dvec, dvec))
             rd = float(np.dot(rvec, dvec))
             cand.share = rd * rd / (rr * dd) if rr > 0 and dd > 0 else 0.0
@@ -137,7 +138,7 @@ class RoundStages:
             if lab in MULTI:
                 est[lab] = 1.0
                 gain[lab] = rr - float(np.dot(d, d))
-                continue
+                return
             eff = get_effect(lab.split(".")[0])
             off, p = eff.param.off, probes[lab]
             alpha = rd / dd
@@ -149,10 +150,43 @@ class RoundStages:
                 v = off + alpha * (p - off)
             est[lab] = float(np.clip(v, eff.param.lo, eff.param.hi))
             gain[lab] = rd * rd / dd
+
+        for lab, cand in cands.items():
+            estimate(lab, cand)
+        # an anchor off its drawn place lengthens its leg as an encoder offset does, plus
+        # a part that changes with the pose: where a leg's offset leads the screen, that
+        # leg's anchors are screened too (one more batch), so the offset does not take
+        # what the anchor did
+        extra = self._anchor_followups(gain)
+        if extra:
+            for lab in extra:
+                eff = get_effect(lab.split(".")[0])
+                probes[lab] = self._probe(lab)
+                cands[lab] = Candidate(lab, eff.param.name, eff.param.unit)
+                trials[lab] = {**self.accepted, lab: probes[lab]}
+            self.progress(f"screen {len(extra)} anchors of the leading leg")
+            outs.update(zip(extra, self.outputs([trials[k] for k in extra]), strict=True))
+            for lab in extra:
+                estimate(lab, cands[lab])
         for lab, (cand, out) in revs.items():
             cands[lab], outs[lab] = cand, out
         return Screen(r0, rvec, e_tr0, e_va0, white, neff, sse0, cands, trials, probes, outs,
                       est, gain, deltas, tuple(revs))
+
+    def _anchor_followups(self, gain: dict[str, float]) -> list[str]:
+        """The anchor candidates of the leg whose encoder offset has the largest predicted
+        error drop of the single-parameter candidates (when it has), not yet screened:
+        ``base_anchor.leg{i}.{x,y,z}`` and ``top_anchor.leg{i}.{x,y,z}``."""
+        single = [k for k in gain if k not in MULTI and not is_revision(k)]
+        if not single:
+            return []
+        best = max(single, key=lambda k: gain[k])
+        if not best.startswith("leg_offset.leg"):
+            return []
+        leg = best.split(".")[1]
+        return [lab for lab in (f"{kind}.{leg}.{ax}" for kind in ("base_anchor", "top_anchor")
+                                for ax in "xyz")
+                if lab not in gain and lab not in self.accepted]
 
     def _refit(self, s: Screen
                ) -> tuple[dict[str, dict[str, np.ndarray]], dict[str, dict[str, float]]]:
