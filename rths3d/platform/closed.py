@@ -39,6 +39,7 @@ from .compiled import (
     _f64p,
     _mj_forward,
     _mj_getState,
+    _mj_setState,
     _mj_step,
     _voidp,
     flat,
@@ -68,6 +69,8 @@ _rk = types.ExternalFunction("mj_RungeKutta", types.void(types.voidptr, types.vo
 _forward_skip = types.ExternalFunction("mj_forwardSkip", types.void(
     types.voidptr, types.voidptr, types.int32, types.int32))
 _VEL = int(mujoco.mjtStage.mjSTAGE_VEL)
+_CTRL = int(mujoco.mjtState.mjSTATE_CTRL)
+_ACT = int(mujoco.mjtState.mjSTATE_ACT)
 _RK4 = int(mujoco.mjtIntegrator.mjINT_RK4)
 _EULER = int(mujoco.mjtIntegrator.mjINT_EULER)
 
@@ -92,14 +95,23 @@ def _step_warm(m, d, integ):
 
 
 @njit
-def physics_warm(run, mj, cnew, act, s0, cprev, integ):
+def physics_warm(run, mj, cnew, act, s0, cprev, integ, ctrl):
     """:func:`~rths3d.platform.compiled.physics` of one ``MjData`` per test stepped in
-    place (no batch state rows), the first substep from the warm state (:func:`_step_warm`):
-    the previous step ended with ``mj_forward`` of the same state."""
+    place, the first substep from the warm state (:func:`_step_warm`): the previous step of
+    this range ended with ``mj_forward`` of the same state in the same ``MjData``. A batch's
+    tests (state rows) keep their own ``MjData`` live too: the row is not loaded again (the
+    range's first step loaded it), only saved after the step with the derived fields the
+    driver reads; the servo's set-point (``act`` and ``ctrl``, written into the row by the
+    driver) goes into the ``MjData`` before the step."""
+    rows = mj[2]
+    tb = mj[10]
     for k in range(run.shape[0]):
         if run[k]:
             m = _voidp(mj[0][k])
             d = _voidp(mj[1][k])
+            if rows:  # the set-point (held: act; ramped: its rate, ctrl) as the driver wrote it
+                _mj_setState(m, d, _f64p(act[k:k + 1].ctypes.data), _ACT)
+                _mj_setState(m, d, _f64p(ctrl[k:k + 1].ctypes.data), _CTRL)
             _step_warm(m, d, integ)
             for _ in range(mj[9] - 1):
                 _mj_step(m, d)
@@ -109,8 +121,18 @@ def physics_warm(run, mj, cnew, act, s0, cprev, integ):
                 da[s0 + i] = cnew[k, i]
                 cprev[k, i] = cnew[k, i]
             _mj_forward(m, d)
-            tb = mj[10]
-            _mj_getState(m, d, _f64p(tb[k:k + 1].ctypes.data), mj[11])
+            if rows:
+                _mj_getState(m, d, _f64p(mj[3][k].ctypes.data), mj[4])
+                osize = mj[7]
+                for j in range(osize.shape[0]):
+                    n = osize[j]
+                    src = numba.carray(_f64p(mj[6][k, j]), n)
+                    dst = numba.carray(_f64p(mj[5][k, j]), n)
+                    for i in range(n):
+                        dst[i] = src[i]
+                tb[k] = mj[3][k, 0]
+            else:
+                _mj_getState(m, d, _f64p(tb[k:k + 1].ctypes.data), mj[11])
 
 
 @njit
@@ -203,7 +225,7 @@ def closed_range(n0, n1, w0, k0, num, mon, rec, comp, io, sens, znz, hist, plat)
             else:
                 ramp_ctrl(y, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0)
             if warm >= 0 and n > n0:
-                physics_warm(run, mj, cnew, act, s0, cprev, warm)
+                physics_warm(run, mj, cnew, act, s0, cprev, warm, ctrl)
             else:
                 physics(run, mj, cnew, act, s0, cprev)
             if any_start:
@@ -313,9 +335,10 @@ class ClosedRange:
         sim = self.sim
         geo, ctl, chain, live, fts, smp = platform_args(sim)
         mt = _mj_tuple(sim, True)
-        # the warm first substep: one MjData per test stepped in place (no state rows)
+        # the warm first substep: one MjData per test stepped in place (a batch's state
+        # rows are loaded by a range's first step only)
         m = sim.model
-        warm = int(m.opt.integrator) if not mt[2] and not (
+        warm = int(m.opt.integrator) if not (
             m.opt.enableflags & int(mujoco.mjtEnableBit.mjENBL_FWDINV)) else -1
         mj = (*mt, sim._run, warm)
         return (geo, ctl, chain, mj, live, fts, smp, (sim._pre, sim.rest_pose))
