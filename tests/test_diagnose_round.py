@@ -58,3 +58,29 @@ def test_threaded_round_equals_one_batch_and_reports_its_time(record, tmp_path):
     assert rb.as_dict()["seconds"] == t
     text = write_report(two, rb, tmp_path / "rep").read_text()
     assert f"- round time: {t['round']:.1f} s" in text
+
+
+def test_a_revision_that_is_the_same_physics_as_the_best_effect_ranks_first():
+    """An extra mass on a rigid part and its stated mass revised explain a record alike
+    (fitted changes correlated 1.0): the revision goes first when its validation error is
+    within 2 % of the effect's (measured on a foreign bench: 1.0087 against 1.0014); not when
+    it explains clearly less, nor when the two are different physics."""
+    from rths3d.diagnose.candidates import PREFIX
+    from rths3d.diagnose.result import Candidate
+    from rths3d.diagnose.rounds import _description_first
+
+    def cands(rev_err: float) -> tuple[list, dict]:
+        eff = Candidate("specimen_mass", "dm", "1", error_after=1.0014, significant=True)
+        rev = Candidate(PREFIX + "experiment.m=3.9945", "θ", "1", error_after=rev_err,
+                        significant=True)
+        other = Candidate("fts_gain.fz", "g", "1", error_after=6.3, significant=True)
+        return [eff, rev, other], {c.effect: c for c in (eff, rev, other)}
+
+    for rev_err, rho, first in ((1.0087, 0.99999, PREFIX + "experiment.m=3.9945"),
+                                (1.05, 0.99999, "specimen_mass"),
+                                (1.0087, 0.9, "specimen_mass")):
+        ranked, by = cands(rev_err)
+        _description_first(ranked, by, [("specimen_mass", PREFIX + "experiment.m=3.9945",
+                                         rho)])
+        assert ranked[0].effect == first, (rev_err, rho)
+        assert len(ranked) == 3

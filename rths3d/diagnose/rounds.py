@@ -309,6 +309,7 @@ class RoundStages:
                 den = math.sqrt(float(np.dot(x, x) * np.dot(y, y)))
                 if den > 0 and abs(float(np.dot(x, y)) / den) >= 0.95:
                     confounded.append((a, b, float(np.dot(x, y)) / den))
+        _description_first(ranked, cands, confounded)
         proposal = next((c for c in ranked if c.significant), None)
         chan_rms = {c: float(np.sqrt(np.mean((r0[c][1:] * self.sigma[c]) ** 2)))
                     for c in self.channels}
@@ -326,3 +327,24 @@ class RoundStages:
         return RoundResult(ranked, dict(self.accepted), proposal is None and noise_like,
                            proposal, confounded, e_tr0, e_va0, chan_rms, dict(self.sigma),
                            white, partly, remaining)
+
+
+def _description_first(ranked: list[Candidate], cands: dict[str, Candidate],
+                       confounded: list[tuple[str, str, float]]) -> None:
+    """Where the best candidate is an effect and a revision of the description is the same
+    physics (its fitted change correlated ≥ 0.99 with the effect's: a rigid part's mass
+    stated wrong and an extra mass on it) and explains the record as well (validation error
+    within 2 %), the revision ranks first: the stated description is what is wrong, as for
+    the controller's conventions (k = 0). In place."""
+    top = next((c for c in ranked if c.significant), None)
+    if top is None or is_revision(top.effect):
+        return
+    for a, b, rho in confounded:
+        other = b if a == top.effect else a if b == top.effect else None
+        if other is None or not is_revision(other) or abs(rho) < 0.99:
+            continue
+        rev = cands[other]
+        if rev.significant and rev.error_after <= 1.02 * top.error_after:
+            ranked.remove(rev)
+            ranked.insert(ranked.index(top), rev)
+            return
