@@ -161,7 +161,7 @@ def description(spec: Spec) -> dict:
                      "fts_height": spec.fts_height,
                      "fts_pose": [0.0, 0.0, spec.fts_height, 0.0, 0.0, 0.0]},
         "controller": {**spec.servo, "timeconst": 0.0, "delay": 0.001, "hold": "zoh",
-                       "sample": "start", "feedforward": "backward", "gravity": "nominal"},
+                       "sample": "start", "feedforward": "backward", "gravity": "measured"},
         "transfer": {"kind": "stewart"},
         "experiment": dict(spec.part),
     }
@@ -374,15 +374,10 @@ docs/diagnosis.md)."""
 MEASURED_MATRIX = {"coulomb_friction.leg2"}
 """Matrix cases the suite runs (fts_mount.x was measured and passes too; docs/diagnosis.md)."""
 
-ANCHOR_MISS = pytest.mark.xfail(
-    reason="measured on bench A (2026-11-27): a 1.5 mm anchor error is taken by leg_offset, "
-           "which ranks above kinematic_calibration; 6.5 noise units remain (docs/diagnosis.md)",
-    strict=True)
-
 
 @pytest.mark.parametrize("name,error", [
     ("rigid", "hold"),
-    *[pytest.param(n, e, marks=[pytest.mark.slow, *([ANCHOR_MISS] if e == "anchor" else []),
+    *[pytest.param(n, e, marks=[pytest.mark.slow,
                                 *([] if (n, e) in MEASURED_WRONG else [FULL])])
       for n, e in WRONG if (n, e) != ("rigid", "hold")]])
 def test_described_wrong_is_found_and_fixed(tmp_path, name, error):
@@ -448,13 +443,9 @@ def matrix_case(folder: Path, label: str, seed: int = 31) -> dict:
 
 
 # the matrix's measured misses (the whole matrix on the idle machine, 2026-11-27)
-MATRIX_MISSES = {
-    "servo_gain.leg1": "actuator_lag.leg1 ranks above servo_gain.leg1; 3.3 noise units remain "
-                       "(docs/diagnosis.md)",
-    "leg_offset.leg3": "found first, but 4.10 noise units remain",
-    "kinematic_calibration": "leg_offset.leg2 ranks first; 6.33 noise units remain",
-    "fixture_mass": "fts_calibration ranks first; 1.36 noise units remain",
-}
+MATRIX_MISSES: dict[str, str] = {}
+"""The matrix's measured misses (none since 2026-11-27: the bench starting at rest, gravity
+compensation from the bench's holding forces, the anchors screened after a leg's offset)."""
 
 
 def _miss(label: str) -> list:
