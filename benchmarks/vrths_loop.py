@@ -12,6 +12,8 @@ Prints ONE JSON line:
   batch_rtf_lti      K_lti tests stepped together on the LTI path (aggregate)
   bare_rtf_stewart, batch_bare_rtf_stewart   the machine's limits measured in the same run:
                      bare mj_step of the model, and raw mujoco.batch stepping of K_stewart
+  batch_stewart_over_bare   batch_rtf_stewart over batch_bare_rtf_stewart, the median of
+                     pairs measured back to back (floor 0.95)
   first_runs_s       wall time of the first (tiny) single and batch runs of both paths in the
                      process: loading the compiled kernels, excluded from the figures above
   ats_over_none_time loop wall time of one test with the ATS compensator over the same test
@@ -108,19 +110,27 @@ def main() -> None:
         assert all(x.status == "ok" for x in res), [x.reason for x in res if x.reason][:1]
         return K * sc.duration / wall
 
-    b_st = med([batch("stewart", args.k_stewart) for _ in range(reps)])
-    # the machine's limit for that batch: raw mujoco.batch stepping of the same model, no loop
+    # the machine's limit for that batch: raw mujoco.batch stepping of the same model, no
+    # loop, alternated with the loop's batch (this machine's speed drifts by tens of % within
+    # a minute: each ratio is of a pair measured back to back)
     from mujoco.batch import Batch
 
     from rths3d.transfer import StewartTransfer
 
     raw = Batch(StewartTransfer([sc.with_transfer("stewart")]).sim.model, args.k_stewart,
                 nthread=2)
-    nraw = int(sc.n_steps * sc.transfer.substeps / 10)
-    t0 = time.perf_counter()
-    for _ in range(nraw):
-        raw.step()
-    b_bare = args.k_stewart * nraw * sc.dt / sc.transfer.substeps / (time.perf_counter() - t0)
+    nraw = int(sc.n_steps * sc.transfer.substeps / 5)
+
+    def raw_rtf() -> float:
+        t0 = time.perf_counter()
+        for _ in range(nraw):
+            raw.step()
+        return args.k_stewart * nraw * sc.dt / sc.transfer.substeps / (time.perf_counter() - t0)
+
+    pairs = [(batch("stewart", args.k_stewart), raw_rtf()) for _ in range(reps)]
+    b_st = med([a for a, _ in pairs])
+    b_bare = med([r for _, r in pairs])
+    b_ratio = med([a / r for a, r in pairs])
     b_lti = med([batch("lti", args.k_lti) for _ in range(reps)])
     print(json.dumps({
         "rtf_stewart": round(med(rtf_st), 2),
@@ -131,6 +141,7 @@ def main() -> None:
         "batch_rtf_stewart": round(b_st, 1),
         "bare_rtf_stewart": round(med(bare_rtf), 2),
         "batch_bare_rtf_stewart": round(b_bare, 1),
+        "batch_stewart_over_bare": round(b_ratio, 3),
         "batch_rtf_lti": round(b_lti, 1),
         "first_runs_s": round(first_runs, 2),
         "ats_over_none_time": round(med(walls["ats"]) / med(walls["none"]), 3),
