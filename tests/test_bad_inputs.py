@@ -1,12 +1,14 @@
 """A table of user mistakes across the commands, each run as a user would run it.
 
 Every case must exit with code 2, print exactly one line on stderr that names the field or
-the path (and no traceback), and leave no output file that looks complete. The cases run as
-subprocesses, a few at a time (they are mostly start-up), collected once per module.
+the path (and no traceback), and leave no output file that looks complete. The cases run in
+three processes, each importing the package once and calling the command-line entry point
+per case as ``python -m rths3d`` does (tests/cli_cases.py), collected once per module.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import socket
 import subprocess
@@ -14,6 +16,7 @@ import sys
 import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
@@ -276,7 +279,7 @@ def _write_fixtures(f: Path) -> None:
 
 @pytest.fixture(scope="module")
 def results(tmp_path_factory):
-    """Every case of the table, run as a subprocess (3 at a time)."""
+    """Every case of the table, run by three processes (tests/cli_cases.py)."""
     root = tmp_path_factory.mktemp("bad_inputs")
     f = root / "fixtures"
     f.mkdir()
@@ -290,20 +293,36 @@ def results(tmp_path_factory):
     spare.mkdir()
     env = {**os.environ, "TMPDIR": str(spare), "COLUMNS": "200"}
 
-    def one(case):
-        name, line, _needle, _outputs = case
+    todo = [c for c in CASES if "{ro}" not in c[1] or ro]
+    runs = []
+    for name, line, _needle, _outputs in todo:
         d = root / name
         d.mkdir()
-        argv = [a.format(d=d, **fill) for a in line.split()]
-        p = subprocess.run([sys.executable, "-m", "rths3d", *argv], capture_output=True,
-                           text=True, timeout=240, cwd=d, env=env, stdin=subprocess.DEVNULL)
-        return name, (p, d)
+        runs.append({"argv": [a.format(d=d, **fill) for a in line.split()], "cwd": str(d)})
+    # three processes, each importing the package once and running its share of the cases
+    # as `python -m rths3d` would (tests/cli_cases.py): a fresh interpreter per case spent
+    # ≈ 2 s of imports on each of them
+    helper = Path(__file__).resolve().parent / "cli_cases.py"
+
+    def share(i: int) -> list[dict]:
+        cases, res = root / f"cases{i}.json", root / f"results{i}.json"
+        cases.write_text(json.dumps(runs[i::3]))
+        p = subprocess.run([sys.executable, str(helper), str(cases), str(res)],
+                           capture_output=True, text=True, timeout=900, cwd=root, env=env,
+                           stdin=subprocess.DEVNULL)
+        assert p.returncode == 0, p.stderr[-3000:]
+        return json.loads(res.read_text())
 
     try:
         with ThreadPoolExecutor(max_workers=3) as pool:
-            out = dict(pool.map(one, [c for c in CASES if "{ro}" not in c[1] or ro]))
+            parts = list(pool.map(share, range(3)))
     finally:
         busy.close()
+    out = {}
+    for i, part in enumerate(parts):
+        for case, r in zip(todo[i::3], part, strict=True):
+            out[case[0]] = (SimpleNamespace(returncode=r["code"], stderr=r["stderr"]),
+                            root / case[0])
     return out, fill
 
 
