@@ -70,7 +70,7 @@ def init(
     sample: str = typer.Option(None, help="When channels are sampled: end | start."),
     feedforward: str = typer.Option(None, help="Velocity feed-forward: backward | central "
                                                "| none."),
-    gravity: str = typer.Option(None, help="Gravity compensation: nominal | none."),
+    gravity: str = typer.Option(None, help="Gravity compensation: nominal | measured | none."),
     mass: float = typer.Option(None, help="Rigid payload mass (kg; default 1)."),
     com: str = typer.Option(None, help="Payload centre of mass x,y,z from the FTS origin, "
                                        "sensor frame (m)."),
