@@ -42,6 +42,7 @@ from .compiled import (
     _mj_setState,
     _mj_step,
     _voidp,
+    copy_outputs,
     flat,
     physics,
     read_fts,
@@ -123,13 +124,7 @@ def physics_warm(run, mj, cnew, act, s0, cprev, integ, ctrl):
             _mj_forward(m, d)
             if rows:
                 _mj_getState(m, d, _f64p(mj[3][k].ctypes.data), mj[4])
-                osize = mj[7]
-                for j in range(osize.shape[0]):
-                    n = osize[j]
-                    src = numba.carray(_f64p(mj[6][k, j]), n)
-                    dst = numba.carray(_f64p(mj[5][k, j]), n)
-                    for i in range(n):
-                        dst[i] = src[i]
+                copy_outputs(k, mj)
                 tb[k] = mj[3][k, 0]
             else:
                 _mj_getState(m, d, _f64p(tb[k:k + 1].ctypes.data), mj[11])

@@ -128,16 +128,23 @@ def _physics_one(k, mj, cnew, act, s0):
         _mj_forward(m, d)
     tb = mj[10]
     if rows:
-        osize = mj[7]
-        for j in range(osize.shape[0]):
-            n = osize[j]
-            src = numba.carray(_f64p(mj[6][k, j]), n)
-            dst = numba.carray(_f64p(mj[5][k, j]), n)
-            for i in range(n):
-                dst[i] = src[i]
+        copy_outputs(k, mj)
         tb[k] = mj[3][k, 0]
     else:
         _mj_getState(m, d, _f64p(tb[k:k + 1].ctypes.data), mj[11])
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def copy_outputs(k, mj):
+    """Test k's derived fields the driver reads (a batch's bound outputs), from its
+    ``MjData`` into the batch's arrays."""
+    osize = mj[7]
+    for j in range(osize.shape[0]):
+        n = osize[j]
+        src = numba.carray(_f64p(mj[6][k, j]), n)
+        dst = numba.carray(_f64p(mj[5][k, j]), n)
+        for i in range(n):
+            dst[i] = src[i]
 
 
 @njit
