@@ -65,6 +65,9 @@ class _Ids:
                 mech.append(int(model.jnt_dofadr[model.joint(f"leg{i}_{j}").id]))
         mech.extend(range(self.plate_dof, self.plate_dof + 6))
         self.mech_dof = np.array(mech)
+        self.cyl_body = [model.body(f"leg{i}_cyl").id for i in range(6)]
+        self.u_qpos = np.array([[model.jnt_qposadr[model.joint(f"leg{i}_{u}").id]
+                                 for u in ("u1", "u2")] for i in range(6)])
         self.tip_site = [model.site(f"leg{i}_tip").id for i in range(6)]
         self.anchor_site = [model.site(f"plate_anchor{i}").id for i in range(6)]
         self.contiguous_slides = bool(np.all(np.diff(self.slide_qpos) ==
@@ -83,7 +86,7 @@ def assemble(model, data, slides: np.ndarray, ids: _Ids | None = None, *,
     ids = ids or _Ids(model)
     mujoco.mj_resetData(model, data)
     mujoco.mj_kinematics(model, data)
-    cyl = [model.body(f"leg{i}_cyl").id for i in range(6)]
+    cyl = ids.cyl_body
     base = data.xpos[cyl].copy()  # the universal joints' centres (world)
     R0 = data.xmat[cyl].reshape(6, 3, 3).copy()  # the cylinders' frames at u1 = u2 = 0
     tip = data.site_xpos[ids.tip_site]
@@ -105,10 +108,9 @@ def assemble(model, data, slides: np.ndarray, ids: _Ids | None = None, *,
         J = np.hstack([u, np.cross(ra, u)])  # ∂L/∂(t, δφ), δφ a rotation in world axes
         dx = np.linalg.solve(J, -r)
         t += dx[:3]
-        quat = np.zeros(4)
-        mujoco.mju_axisAngle2Quat(quat, dx[3:] / (np.linalg.norm(dx[3:]) or 1.0),
-                                  float(np.linalg.norm(dx[3:])))
-        dR = np.zeros(9)
+        angle = float(np.linalg.norm(dx[3:]))
+        quat, dR = np.zeros(4), np.zeros(9)
+        mujoco.mju_axisAngle2Quat(quat, dx[3:] / (angle or 1.0), angle)
         mujoco.mju_quat2Mat(dR, quat)
         R = dR.reshape(3, 3) @ R
     else:
@@ -120,8 +122,8 @@ def assemble(model, data, slides: np.ndarray, ids: _Ids | None = None, *,
     for i in range(6):
         d = R0[i].T @ (v[i] / L[i])  # the leg's direction in its cylinder's frame
         # the leg frame is Rx(u1) Ry(u2): its z axis (sin u2, −sin u1 cos u2, cos u1 cos u2)
-        data.qpos[model.jnt_qposadr[model.joint(f"leg{i}_u1").id]] = np.arctan2(-d[1], d[2])
-        data.qpos[model.jnt_qposadr[model.joint(f"leg{i}_u2").id]] = np.arcsin(d[0])
+        data.qpos[ids.u_qpos[i, 0]] = np.arctan2(-d[1], d[2])
+        data.qpos[ids.u_qpos[i, 1]] = np.arcsin(d[0])
         data.qpos[ids.slide_qpos[i]] = L[i] - ell0[i]
     mujoco.mj_kinematics(model, data)
 
