@@ -364,7 +364,12 @@ class PlatformBatch:
         nominal_static: dict[int, StaticState] = {}
         for k in range(self.nsim):
             mk = self.batch.get_model(k)
-            mujoco.mj_resetData(mk, d)
+            if np.any(self._bias[k]):
+                # a set-point bias the encoders do not see (the true geometry differs from
+                # the controller's): the static forces where it holds the plate
+                assemble(mk, d, self._bias[k], self.ids)
+            else:
+                mujoco.mj_resetData(mk, d)
             st = static_state(self._cfgs[k], mk, d, self.ids)
             statics.append(st)
             nom = self._nominal[k]
@@ -381,11 +386,10 @@ class PlatformBatch:
                 offs[k] = comp.offsets * self._gscale[k]
             c0 = offs[k] + self._bias[k]
             # the servos hold the true bench's weight where each slide is its set-point less
-            # its leg force over its own gain: start there — biased where the true geometry
-            # differs from the controller's, sagged where the compensation is not the true
-            # bench's — not at home with a transient through the record
+            # its leg force over its own gain: start there (sagged where the compensation is
+            # not the true bench's), not at home with a transient through the record
             rest = c0 - st.offsets
-            if np.max(np.abs(rest)) > 1e-12:
+            if np.max(np.abs(rest - d.qpos[self.ids.slide_qpos])) > 1e-12:
                 assemble(mk, d, rest, self.ids)
             d.ctrl[self.ids.act] = 0.0
             d.act[mk.actuator_actadr[self.ids.act]] = c0
