@@ -346,7 +346,16 @@ class Scene:
         return int(round(self.duration / self.dt))
 
     def params(self) -> dict[str, Any]:
-        """Flat dict of all scalar parameters, keyed by dotted field names."""
+        """Flat dict of all scalar parameters, keyed by dotted field names (a new dict on
+        every call; the scene, frozen, computes it once: a batch asks each test's scene
+        for it when grouping and again for its record)."""
+        cached = self.__dict__.get("_params")
+        if cached is None:
+            cached = self._flat_params()
+            object.__setattr__(self, "_params", cached)
+        return dict(cached)
+
+    def _flat_params(self) -> dict[str, Any]:
         out: dict[str, Any] = {"dt": self.dt, "duration": self.duration}
         for sec in ("numerical", "experiment", "excitation", "transfer", "sensor", "safety"):
             obj = getattr(self, sec)

@@ -27,9 +27,12 @@ Public API: :func:`run` (one test), :func:`run_batch` (many parameter sets, K at
 from __future__ import annotations
 
 import math
+import os
 import threading
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -412,20 +415,69 @@ def run_batch(scene: Scene, param_sets: Sequence[Mapping[str, Any]], transfer: s
         groups.setdefault(batch_key(s), []).append(i)
     results: list[RunResult | None] = [None] * len(scenes)
     models = [""] * len(scenes)
+    threads = nthread if nthread > 0 else min(2, os.cpu_count() or 1)
+
+    def one(part: list[int], report: Progress) -> None:
+        res, model = _run_group([scenes[i] for i in part],
+                                reference="defer" if reference else False,
+                                nthread=nthread, control=None, buffers_out=None,
+                                progress=report, specimen=specimen, test_ids=part)
+        for i, r in zip(part, res, strict=True):
+            results[i] = r
+            models[i] = model
+
     for idx in groups.values():
         for start in range(0, len(idx), max_k):
             part = idx[start:start + max_k]
-            res, model = _run_group([scenes[i] for i in part],
-                                    reference="defer" if reference else False,
-                                    nthread=nthread, control=None, buffers_out=None,
-                                    progress=progress, specimen=specimen, test_ids=part)
-            for i, r in zip(part, res, strict=True):
-                results[i] = r
-                models[i] = model
+            slices = _thread_slices(scenes[part[0]], part, threads, specimen)
+            if len(slices) == 1:
+                one(part, progress)
+                continue
+            # each slice built and stepped on its own thread: the compiled steps and the
+            # record's fill release the GIL, the set-up in Python takes turns
+            with _slice_progress(progress, len(part)) as report, \
+                    ThreadPoolExecutor(len(slices), thread_name_prefix="batch") as pool:
+                for fut in [pool.submit(one, sl, report) for sl in slices]:
+                    fut.result()
     if reference:
         _fill_references(scenes, results, models, max_k=max_k, nthread=nthread,
                          progress=progress)
     return results  # type: ignore[return-value]
+
+
+SLICE_MIN = 64
+"""Fewest tests of a slice stepped on its own thread (smaller slices: one group)."""
+
+
+def _thread_slices(scene: Scene, part: list[int], threads: int, specimen: str
+                   ) -> list[list[int]]:
+    """``part`` cut into up to ``threads`` slices of ≥ :data:`SLICE_MIN` tests when its
+    transfer system allows it (``threads_over_tests``), else one slice."""
+    n = min(threads, len(part) // SLICE_MIN)
+    allowed = getattr(transfer_class(scene.transfer.kind), "threads_over_tests", None)
+    if n < 2 or allowed is None or not allowed(scene, specimen):
+        return [part]
+    cuts = np.linspace(0, len(part), n + 1).round().astype(int)
+    return [part[a:b] for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
+
+
+@contextmanager
+def _slice_progress(progress: Progress, tests: int) -> Iterator[Progress]:
+    """One progress report for the slices of a batch: the caller's callable (made safe to
+    call from the slices' threads), or one bar over the batch's tests."""
+    lock = threading.Lock()
+    if callable(progress):
+        def report(done: float) -> None:
+            with lock:
+                progress(done)
+        yield report
+        return
+    with tqdm(total=tests, desc="tests", unit="test", mininterval=0.5,
+              disable=True if not progress else None) as bar:
+        def report_bar(done: float) -> None:
+            with lock:
+                bar.update(done)
+        yield report_bar
 
 
 def _fill_references(scenes: list[Scene], results: list, models: list[str], *, max_k: int,

@@ -62,3 +62,34 @@ def test_batch_metadata_equals_the_metadata_of_each_test() -> None:
             elif key not in ("status", "reason"):
                 assert got[key] == v, key
         assert ("delay_margin" in got) == ("delay_margin" in want)
+
+
+def test_a_big_batch_stepped_as_slices_on_threads_gives_the_records_of_one_group() -> None:
+    """130 tests of the 1-D path (≥ 2 × SLICE_MIN: two slices, each built and stepped on its
+    own thread) against the same tests as one group on one thread: every record equal bit
+    for bit — with seeded sensor noise, a delay varied per test and tests the safety limits
+    stop (an FTS range below the test's force) at different rows."""
+    from rths3d.loop import SLICE_MIN
+
+    sc = load_scene("paper_contact", ["duration=0.5", "transfer.kind='lti'",
+                                      "sensor.noise_std=0.02", "effect.sensor_noise=1.0"])
+    n = 2 * SLICE_MIN + 2
+    sets = [{"numerical.k": 1e3 + 50.0 * i, "transfer.delay": 1e-3 * (i % 3),
+             "sensor.seed": i} for i in range(n)]
+    for i, limit in ((5, 0.05), (70, 0.1), (129, 0.2)):  # N: the force limit stops them
+        sets[i] = {**sets[i], "safety.force": limit}
+    one = run_batch(sc, sets, reference=False, nthread=1, max_k=n)
+    two = run_batch(sc, sets, reference=False, nthread=2, max_k=n)
+    stopped = [i for i, r in enumerate(one) if r.status == "stopped"]
+    assert stopped == [5, 70, 129], stopped
+    assert len({len(one[i].record.t) for i in stopped}) == 3  # at three different rows
+    noisy = one[0].record.columns["f_meas.z"]
+    assert np.std(np.diff(noisy[:50])) > 0  # the noise is in the record
+    for i, (a, b) in enumerate(zip(one, two, strict=True)):
+        assert (a.status, a.reason) == (b.status, b.reason), i
+        assert a.record.columns.keys() == b.record.columns.keys()
+        np.testing.assert_array_equal(a.record.t, b.record.t, err_msg=str(i))
+        for c, v in a.record.columns.items():
+            np.testing.assert_array_equal(v, b.record.columns[c], err_msg=f"{i} {c}")
+    # the two slices ran the same compiled path as one group
+    assert {r.record.meta["loop"] for r in one + two} == {"compiled"}

@@ -141,9 +141,15 @@ def interface_delay_margins_1dof(m: ArrayLike, c: ArrayLike, k: ArrayLike, gamma
         return z * g[r] ** 2 / (m[r] * s1 * s1 + c[r] * s1 + k[r])
 
     # the scalar function's grid, np.geomspace per test (the same floating-point points)
-    grid = np.stack([np.geomspace(lo[i], hi[i], int(n_grid)) for i in idx])
-    rows = np.broadcast_to(idx[:, None], grid.shape)
-    sgn = np.signbit(np.abs(mu(grid, rows)) - 1.0)
+    grid = np.geomspace(lo[idx], hi[idx], int(n_grid), axis=1)
+    # where |μ| crosses 1 on the grid: |μ|² in real arithmetic (the complex μ of every grid
+    # point cost 0.15 s for 512 tests), the same sign but where |μ| is 1 to rounding
+    w2 = grid * grid
+    r = idx[:, None]
+    num2 = (ke[r] ** 2 + (ce[r] * grid) ** 2) * (me[r] * w2) ** 2 * g[r] ** 4
+    den2 = ((ke[r] - me[r] * w2) ** 2 + (ce[r] * grid) ** 2) * \
+        ((k[r] - m[r] * w2) ** 2 + (c[r] * grid) ** 2)
+    sgn = np.signbit(num2 - den2)
     ti, gi = np.nonzero(sgn[:, 1:] != sgn[:, :-1])
     if not ti.size:
         return tau, wc_out, pm_out

@@ -15,7 +15,9 @@ everything it needs is in :class:`TransferSystem` —
   None when part of it runs in Python (MuJoCo); the loop then steps it from Python, and the
   record's ``loop`` metadata says which path ran;
 - the classmethods ``build(scenes, …)`` and ``batch_key(settings)``: how to make one for K
-  tests and which settings must be equal for tests stepped together. The rule is written once
+  tests and which settings must be equal for tests stepped together; ``threads_over_tests(
+  scene, specimen)``: whether a big batch may be stepped as slices of tests on threads
+  (each test's rows independent of the others', no thread pool of its own). The rule is written once
   here and used by the loop (:func:`batch_key` of a scene) and by the sweeps (of a test's
   parameters), so both group tests alike.
 
@@ -100,6 +102,14 @@ class TransferSystem(Protocol):
 
     @classmethod
     def batch_key(cls, settings: Mapping[str, Any]) -> Hashable: ...
+
+    @classmethod
+    def threads_over_tests(cls, scene: Scene, specimen: str) -> bool:
+        """Whether :func:`~rths3d.loop.run_batch` may step a big batch of this kind as
+        slices of tests on threads, each slice built and stepped on its own: the tests'
+        rows are independent (seeded per test) and the system keeps no thread pool of its
+        own (the platform's MuJoCo batch has one)."""
+        ...
 
     def reset(self) -> None: ...
 

@@ -19,7 +19,7 @@ import numpy as np
 from ..compensation import BaseCompensator
 from ..config import Scene
 from ..effects.blocks import Chain
-from ..experiment import build_part_model, part_class
+from ..experiment import build_part_model, part_class, uses_numpy
 from .base import CompiledTransfer, RecordSignal, effect_on, sensor_key, setting
 from .commands import compensation_record, compensator_key, compensator_of
 from .sensor import sensor_chain
@@ -111,6 +111,12 @@ class ChainTransfer:
         model = "numpy" if part.compiled() is not None else "mujoco"
         metas = [{"specimen": model, **m} for m in metas]
         return cls(scenes, comp, act, part, sensor_chain(scenes, n), metas)
+
+    @classmethod
+    def threads_over_tests(cls, scene: Scene, specimen: str) -> bool:
+        """Slices on threads when the part steps through its numpy model (the compiled 1-D
+        loop, one row per test and DOF); a MuJoCo part has its own thread pool."""
+        return uses_numpy(scene.experiment, specimen)
 
     @classmethod
     def batch_key(cls, settings: Mapping[str, Any]) -> Hashable:

@@ -139,6 +139,11 @@ class StewartTransfer:
         return cls(scenes, nthread)
 
     @classmethod
+    def threads_over_tests(cls, scene: Scene, specimen: str) -> bool:
+        """No: the platform's MuJoCo batch steps its tests on its own threads."""
+        return False
+
+    @classmethod
     def batch_key(cls, settings: Mapping[str, Any]) -> Hashable:
         s = settings
         # per-test values (controller blocks), but numbers: a ConfigError names a bad one
