@@ -4,7 +4,13 @@ Run ``python benchmarks/sweep.py [--quick]``; prints ONE JSON line:
 
 ``tests_per_s_1worker``, ``tests_per_s_2workers``, ``parallel_efficiency``
     the same small LTI sweep run with 1 and with 2 local worker processes, side by side
-    (efficiency = rate₂ / (2 rate₁)).
+    (efficiency = rate₂ / (2 rate₁)). The 1-worker run is this process, warmed by a tiny
+    sweep first and held to one core (``RTHS3D_THREADS=1``, as each pool worker is); the
+    2-worker run includes starting its workers.
+``machine_parallel_efficiency``
+    the machine's own ceiling for that figure, measured in the same run: a compiled
+    arithmetic loop (no memory traffic, no GIL) on one thread, then on two at once
+    (rate₂ / (2 rate₁)); a sweep cannot scale better than its cores do.
 ``paper280_stewart_s``
     wall time of the paper's 280-test contact sweep on the MuJoCo Stewart platform (2 workers;
     floor < 120 s). With ``--quick`` 20 tests (one transfer setting, 2 batches) are timed and
@@ -60,6 +66,38 @@ def _timed_sweep(spec, out: Path, workers: int) -> tuple[float, object]:
     t0 = time.perf_counter()
     frame = run_sweep(spec, out, workers=workers, progress=False)
     return time.perf_counter() - t0, frame
+
+
+def machine_parallel_efficiency(seconds: float = 0.4) -> float:
+    """rate on two threads / (2 × rate on one) of a compiled arithmetic loop (the cores'
+    ceiling for any parallel work here, measured rather than assumed)."""
+    import threading
+
+    import numba
+
+    @numba.njit(nogil=True, cache=False)
+    def spin(n):
+        x = 0.0
+        for i in range(n):
+            x += (i % 7) * 1.0000001
+        return x
+
+    spin(10)
+    n = 1_000_000
+    t0 = time.perf_counter()
+    spin(n)
+    n = max(n, int(n * seconds / max(time.perf_counter() - t0, 1e-6)))
+    t0 = time.perf_counter()
+    spin(n)
+    one = time.perf_counter() - t0
+    threads = [threading.Thread(target=spin, args=(n,)) for _ in range(2)]
+    t0 = time.perf_counter()
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    two = time.perf_counter() - t0
+    return one / two
 
 
 def _subset(spec, n: int, n_batches: int = 2):
@@ -183,8 +221,18 @@ def main() -> None:
         stew = load_spec(SWEEPS / "paper280_stewart.toml")
         # throughput: the same LTI subset with 1 and 2 workers, side by side
         small = _subset(lti, 64 if args.quick else 256, n_batches=4)
-        t1, _ = _timed_sweep(small, tmp / "w1", 1)
+        _timed_sweep(_subset(lti, 4, n_batches=1), tmp / "warm", 1)  # imports, kernels
+        threads = os.environ.get("RTHS3D_THREADS")
+        os.environ["RTHS3D_THREADS"] = "1"  # one worker, one core (as each pool worker)
+        try:
+            t1, _ = _timed_sweep(small, tmp / "w1", 1)
+        finally:
+            if threads is None:
+                os.environ.pop("RTHS3D_THREADS")
+            else:
+                os.environ["RTHS3D_THREADS"] = threads
         t2, _ = _timed_sweep(small, tmp / "w2", 2)
+        res["machine_parallel_efficiency"] = machine_parallel_efficiency()
         n_small = len(small.tests())
         res["tests_per_s_1worker"] = n_small / t1
         res["tests_per_s_2workers"] = n_small / t2

@@ -45,14 +45,10 @@ def worker_setup(progress=None, warm: bytes | None = None) -> None:
     global _progress
     # One core per worker process: the parallelism is across processes (MuJoCo batches too:
     # two 2-thread batches on 2 cores thrash, one thread each does not).
+    # torch, imported only by a sweep that needs it (the surrogate), takes its thread count
+    # from OMP_NUM_THREADS then; importing it here cost each worker 2 s of its start
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     os.environ.setdefault(THREADS_ENV, "1")
-    try:
-        import torch
-
-        torch.set_num_threads(1)
-    except ImportError:  # pragma: no cover - torch is a dependency
-        pass
     _progress = progress
     if warm is not None:
         import pickle
