@@ -195,3 +195,37 @@ def test_excitation_file_is_relative_to_the_scene(tmp_path):
 
         sc = load_scene(scene_dir / "pushed.toml", ["excitation.file='push.csv'"])
         run(sc, "ideal", reference=False)
+
+
+@pytest.mark.parametrize("overrides", [
+    {"numerical.k": 5e3}, {"numerical.m": 2.5, "numerical.c": 0.0},
+    {"numerical.k": 0.0, "numerical.m": 19.24, "numerical.c": 500.0},
+    {"numerical.k": -1.0}, {"numerical.m": 0.0}, {"numerical.c": "a lot"},
+    {"numerical.k": float("inf")}, {"numerical.k": [[1.0, 2.0]]},
+])
+@pytest.mark.parametrize("integrator", ["exact", "central_difference"])
+def test_a_changed_one_dof_numerical_substructure_validates_as_a_whole_scene(
+        overrides, integrator) -> None:
+    """scene_with's cheaper path (only the numerical m, c, k of a one-DOF scene change)
+    gives the scene, or the error, that validating the whole changed mapping gives —
+    including central_difference's coupled-stability refusal (a stiff numerical spring)."""
+    from rths3d.errors import ConfigError
+    from rths3d.scene import apply_overrides, scene_from_dict, scene_to_dict, scene_with
+
+    sc = load_scene("paper_contact", [f"numerical.integrator='{integrator}'"])
+    cases = [overrides, {**overrides, "numerical.k": 5e7}] if "numerical.k" not in overrides \
+        else [overrides]
+
+    def outcome(fn):
+        try:
+            return fn()
+        except ConfigError as exc:
+            return ("error", exc.field, str(exc.value), exc.limit)
+
+    for ov in cases:
+        full = outcome(lambda ov=ov: scene_from_dict(apply_overrides(scene_to_dict(sc), ov),
+                                                     name=sc.name, source=sc.source))
+        fast = outcome(lambda ov=ov: scene_with(sc, ov))
+        assert fast == full, ov
+    stiff = outcome(lambda: scene_with(sc, {"numerical.k": 5e9}))
+    assert isinstance(stiff, tuple) == (integrator == "central_difference"), stiff
