@@ -40,6 +40,7 @@ import numpy as np
 from tqdm import tqdm
 
 from .config import Scene
+from .effects.blocks import kernel_tuple
 from .errors import ConfigError
 from .metadata import record_metas
 from .numerical import LinearSubstructure, NumericalFactory
@@ -249,7 +250,9 @@ class _Group:
     def _compiled(self, n0: int, n1: int, num_c: tuple, tr_c: Any) -> int:
         tr = self.transfer
         R = self.K * self.nd
-        stages = (*tr_c.comp, *tr_c.act, *tr_c.part, *tr_c.sens)
+        # the kernel tuples typed once (kernel_tuple), not inspected on every call
+        stages = tuple(kernel_tuple(x) if i % 3 == 0 else x for i, x in
+                       enumerate((*tr_c.comp, *tr_c.act, *tr_c.part, *tr_c.sens)))
         io = (self.num.z, self.num.zdot, self.num.x, tr.z_meas, tr.z_prev, tr.f_true,
               tr.f_meas, tr.u)
         mon = self._monitor_arrays()
