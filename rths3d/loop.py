@@ -467,16 +467,20 @@ def _thread_slices(scene: Scene, part: list[int], threads: int, specimen: str
 @contextmanager
 def _slice_progress(progress: Progress, tests: int) -> Iterator[Progress]:
     """One progress report for the slices of a batch: the caller's callable (made safe to
-    call from the slices' threads), or one bar over the batch's tests."""
+    call from the slices' threads), one bar over the batch's tests, or none (the slices
+    then step their tests in one compiled call each, as a group without progress does)."""
     lock = threading.Lock()
+    if not progress:
+        yield False
+        return
     if callable(progress):
         def report(done: float) -> None:
             with lock:
                 progress(done)
         yield report
         return
-    with tqdm(total=tests, desc="tests", unit="test", mininterval=0.5,
-              disable=True if not progress else None) as bar:
+    # disable=None: shown on a terminal only (a piped stderr keeps one-line errors)
+    with tqdm(total=tests, desc="tests", unit="test", mininterval=0.5, disable=None) as bar:
         def report_bar(done: float) -> None:
             with lock:
                 bar.update(done)
