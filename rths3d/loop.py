@@ -250,9 +250,9 @@ class _Group:
     def _compiled(self, n0: int, n1: int, num_c: tuple, tr_c: Any) -> int:
         tr = self.transfer
         R = self.K * self.nd
-        # the kernel tuples typed once (kernel_tuple), not inspected on every call
-        stages = tuple(kernel_tuple(x) if i % 3 == 0 else x for i, x in
-                       enumerate((*tr_c.comp, *tr_c.act, *tr_c.part, *tr_c.sens)))
+        # each stage's kernels typed once (kernel_tuple), not inspected on every call
+        stages = tuple(x for fns, params, state in (tr_c.comp, tr_c.act, tr_c.part, tr_c.sens)
+                       for x in (kernel_tuple(fns), params, state))
         io = (self.num.z, self.num.zdot, self.num.x, tr.z_meas, tr.z_prev, tr.f_true,
               tr.f_meas, tr.u)
         mon = self._monitor_arrays()

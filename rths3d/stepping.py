@@ -18,12 +18,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .effects.blocks import njit, run_chain
+from .effects.blocks import inline_njit, njit, run_chain
 from .numerical._kernels import linear_step
 from .safety import check_command, check_measured
-
-inline_njit = numba.njit(cache=True, nogil=True, inline="always")
-"""numba's compiler for the loop's small per-step helpers, inlined into their caller."""
 
 # The per-step kernels the range loop calls, inlined into it (the same source, compiled
 # once more with inlining), and the loop compiled without numba's reference counting

@@ -30,7 +30,8 @@ from numba.extending import typeof_impl
 
 __all__ = ["BLOCK_SIG", "Block", "Chain", "DelayBlock", "GainBlock", "KernelTuple", "LTIBlock",
            "LagBlock", "NoiseBlock", "OffsetBlock", "PlayBlock", "RateLimitBlock", "block_kernel",
-           "kernel_tuple", "njit", "padded_kernels", "ready", "run_chain", "run_blocks"]
+           "inline_njit", "kernel_tuple", "njit", "padded_kernels", "ready", "run_chain",
+           "run_blocks"]
 
 # chains call their blocks' kernels as first-class functions (one compiled caller for every
 # sequence of blocks); numba still labels that feature experimental
@@ -38,6 +39,8 @@ warnings.filterwarnings("ignore", category=numba.NumbaExperimentalFeatureWarning
 
 njit = numba.njit(cache=True, nogil=True)
 """numba's compiler with the project's settings (on-disk cache, no GIL)."""
+inline_njit = numba.njit(cache=True, nogil=True, inline="always")
+"""The same for small per-step helpers, inlined into their compiled callers."""
 
 F2 = types.float64[:, ::1]
 F1 = types.float64[::1]
