@@ -2,7 +2,10 @@
 
 Prints ONE JSON line. ``diagnose_6dof_5s_s``: as the next, for a 5 s record (floor 15 s,
 ``floor_6dof_5s_s``), with its round's stages ``diagnose_6dof_5s_screen_s``, ``…_refit_s``,
-``…_rank_s`` (``RoundResult.seconds``) and the ``threads`` they ran on.
+``…_rank_s`` (``RoundResult.seconds``) and the ``threads`` they ran on;
+``diagnose_6dof_5s_rk4_screen_s`` (and ``…_found``, ``…_screen_s``) the same with the
+screening's probes replayed through RK4 too (``screen_integrator="RK4"``; the default screens
+them with ``implicitfast``), alternated with it.
 ``diagnose_6dof_10s_s``: median wall time (s) to load a 10 s measurement of the six-DOF
 bench test (scene ``bench6``, made closed loop with a hidden Coulomb friction on leg 2, 4
 substeps, noise), replay the bench, screen *every* candidate (each effect on each leg and
@@ -45,7 +48,17 @@ def main() -> None:
             sc = load_scene(scene, [f"duration={dur}", "transfer.kind='stewart'"])
             path = measure(sc, {hidden: 30.0}, seed=7).save(Path(tmp) / f"{key}.parquet")
             times, found = [], []
+            rk4_times, rk4_found = [], []
             for _ in range(reps):
+                if dur == 5.0:
+                    # the screening's probes through RK4 as well (the former convention),
+                    # alternated with the default's runs
+                    t0 = time.perf_counter()
+                    rec, _, _ = load_measurement(path)
+                    res = Diagnosis(rec, screen_integrator="RK4").run()
+                    rk4_times.append(time.perf_counter() - t0)
+                    rk4_found.append(res.candidates[0].effect == hidden)
+                    rk4_seconds = res.seconds
                 t0 = time.perf_counter()
                 rec, _, _ = load_measurement(path)
                 diag = Diagnosis(rec)
@@ -60,6 +73,9 @@ def main() -> None:
                 for stage in ("screen", "refit", "rank"):
                     out[f"{key[:-2]}_{stage}_s"] = round(res.seconds[stage], 3)
                 out["threads"] = int(res.seconds["threads"])
+                out["diagnose_6dof_5s_rk4_screen_s"] = round(statistics.median(rk4_times), 3)
+                out["diagnose_6dof_5s_rk4_screen_found"] = all(rk4_found)
+                out["diagnose_6dof_5s_rk4_screen_screen_s"] = round(rk4_seconds["screen"], 3)
                 continue
             if scene == "bench6":
                 # the physics alone: one replay, and the screening batch

@@ -217,8 +217,8 @@ def test_bad_measurement_files_give_clear_errors(tmp_path, mutate, match):
 
 
 def test_cli_bad_input_one_line_exit_2(tmp_path, capsys):
-    """A missing file, an unknown effect, a --save-scene that is not TOML and an unknown
-    scene print one line and exit 2."""
+    """A missing file, an unknown effect, a --save-scene that is not TOML, an unknown scene
+    and an unknown screening integrator print one line and exit 2."""
     import pandas as pd
 
     good = tmp_path / "g.csv"
@@ -229,6 +229,7 @@ def test_cli_bad_input_one_line_exit_2(tmp_path, capsys):
         ([str(good), "--add", "delay", "--add", "delay=0.01"], "given twice"),
         ([str(good), "--save-scene", str(tmp_path / "x.json")], "must end in .toml"),
         ([str(good), "--scene", "no_such_scene"], "file not found"),
+        ([str(good), "--screen-integrator", "Euler"], "--screen-integrator: 'Euler'"),
     ):
         with pytest.raises(SystemExit) as ex:
             cli_main(["diagnose", *args])

@@ -50,6 +50,11 @@ def diagnose(
         None, "--save-scene",
         help="Write the bench with the accepted effects as a scene TOML ([[effect]] tables); "
              "`rths3d run` it to reproduce the measured test."),
+    screen_integrator: str = typer.Option(
+        "implicitfast", "--screen-integrator",
+        help="Integrator of the screening probes: implicitfast (default, ≈ 0.4 of an RK4 "
+             "replay; each probe's change anchored on the RK4 replay) or RK4. Refits, "
+             "calibrations, revisions and the ranking's figures use the scene's own."),
     hybrid: bool = typer.Option(False, "--hybrid",
                                 help="Run the uncalibrated and the calibrated scene closed "
                                      "loop and add their e_rel,track and FEI delay to the "
@@ -63,11 +68,14 @@ def diagnose(
     from ..diagnose import Diagnosis, load_measurement
     from ..diagnose.bench import resolve_bench
     from ..diagnose.candidates import is_revision
-    from ..diagnose.engine import MULTI
+    from ..diagnose.engine import MULTI, SCREEN_INTEGRATORS
     from ..effects import parse_effect_arg
     from ..errors import ConfigError
     from ..figures import check_output
 
+    if screen_integrator not in SCREEN_INTEGRATORS:
+        raise ConfigError("--screen-integrator", screen_integrator,
+                          f"one of {', '.join(SCREEN_INTEGRATORS)}")
     adds = [(a.strip(), None) if a.strip() in MULTI or is_revision(a.strip())
             else parse_effect_arg(a) for a in add]
     names = [name for name, _ in adds]
@@ -89,7 +97,7 @@ def diagnose(
         for line in origin:
             typer.echo(line)
     warns = [*warns, *bench_warns]
-    diag = Diagnosis(rec, sc, refit=refit)
+    diag = Diagnosis(rec, sc, refit=refit, screen_integrator=screen_integrator)
     warns += diag.warnings
     for name, value in adds:
         diag.add(name, value, fix=value is not None)

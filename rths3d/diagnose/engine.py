@@ -52,8 +52,11 @@ from .measurement import check_measurement
 from .result import MULTI, NOISE_LIKE, Candidate, RoundResult, effect_configs
 from .rounds import RoundStages
 
-__all__ = ["MULTI", "NOISE_LIKE", "Candidate", "Diagnosis", "RoundResult",
-           "default_candidates"]
+__all__ = ["MULTI", "NOISE_LIKE", "SCREEN_INTEGRATORS", "Candidate", "Diagnosis",
+           "RoundResult", "default_candidates"]
+
+SCREEN_INTEGRATORS = ("implicitfast", "RK4")
+"""The platform integrators the screening's probes can be replayed with."""
 
 
 def default_candidates(scene: Scene) -> list[str]:
@@ -104,13 +107,23 @@ class Diagnosis(RoundStages, Calibrations):
         The description candidates screened beside the effects (names of
         :data:`~.candidates.DESCRIPTIONS`; default all, ``()`` none): revisions of what the
         scene states (the controller's conventions, the payload).
+    screen_integrator:
+        The platform's integrator for the screening probes of single-parameter candidates
+        (``"implicitfast"``, the default, or ``"RK4"``; ``None``: the scene's own). A probe's
+        channels are the reference model's at the accepted effects plus the probe's change
+        as the cheaper integrator sees it, y_ref(θ₀) + [y_fast(θ) − y_fast(θ₀)]: the
+        integrator's error is common to both fast replays and cancels to first order in the
+        change, which is all the screening uses (a sensitivity Δ). Refits, calibrations,
+        revisions and every figure of the ranking are replayed with the scene's integrator.
+        ``"implicitfast"`` costs ≈ 0.4 of an RK4 replay (docs/diagnosis.md).
     """
 
     def __init__(self, record: Record, scene: Scene | None = None, *,
                  candidates: Iterable[str] | None = None, block: float = 0.5,
                  refit: int = 8, min_gain: float = 0.01, substeps: int = 1, nthread: int = 2,
                  progress: Callable[[str], None] | None = None,
-                 descriptions: Iterable[str] | None = None):
+                 descriptions: Iterable[str] | None = None,
+                 screen_integrator: str | None = "implicitfast"):
         chans = check_measurement(record)
         self.record = record
         self.warnings: list[str] = []
@@ -132,7 +145,12 @@ class Diagnosis(RoundStages, Calibrations):
         self.replay = BenchReplay(scene, inp, substeps=substeps, nthread=nthread)
         self.threads = max(1, int(nthread))
         """Threads of a round's batched replays (:meth:`outputs`)."""
-        self._replays: list[BenchReplay] = []
+        self._pools: dict[int, tuple[BenchReplay, list[BenchReplay]]] = {}
+        if screen_integrator not in (None, *SCREEN_INTEGRATORS):
+            raise ConfigError("screen_integrator", screen_integrator,
+                              f"one of {', '.join(SCREEN_INTEGRATORS)}")
+        self.screen_integrator = screen_integrator
+        self._screen_pair: tuple[BenchReplay, BenchReplay] | None = None
         produced = set(self.replay.channels)
         self.ignored = tuple(c for c in chans if c not in produced)
         self.channels = tuple(c for c in chans if c in produced)
@@ -174,14 +192,30 @@ class Diagnosis(RoundStages, Calibrations):
     def _key(self, effects: Mapping[str, float]) -> tuple:
         return tuple(sorted((k, float(v)) for k, v in effects.items()))
 
-    def outputs(self, effect_sets: list[Mapping[str, float]]) -> list[dict[str, np.ndarray]]:
+    def outputs(self, effect_sets: list[Mapping[str, float]], *, screen: bool = False
+                ) -> list[dict[str, np.ndarray]]:
         """Replays (every channel) for several sets of effects on top of the scene's, in one
-        batch; cached."""
-        keys = [self._key(e) for e in effect_sets]
+        batch; cached. ``screen``: the screening's probes, through
+        :attr:`screen_integrator` (anchored on the reference replay of the accepted
+        effects)."""
+        fast = self._screen_replay() if screen else None
+        if fast is None:
+            return self._outputs(effect_sets, self.replay, "")
+        ref = self.predict()
+        base, *raw = self._outputs([self.accepted, *effect_sets], fast, "screen")
+        if not all(np.all(np.isfinite(base[c])) for c in self.channels):
+            # the cheaper model stopped where the reference did not: no change to anchor
+            return self._outputs(effect_sets, self.replay, "")
+        return [{**{c: ref[c] + (r[c] - base[c]) for c in self.channels},
+                 "_stopped": r["_stopped"]} for r in raw]
+
+    def _outputs(self, effect_sets: list[Mapping[str, float]], replay: BenchReplay,
+                 tag: str) -> list[dict[str, np.ndarray]]:
+        keys = [(tag, *self._key(e)) for e in effect_sets]
         todo = list({k: i for i, k in enumerate(keys) if k not in self._cache}.values())
         if todo:
             sets = [effect_configs({**self.base_effects, **effect_sets[i]}) for i in todo]
-            res = self._replay(sets)
+            res = self._replay(sets, replay)
             self.nsim += len(todo)
             if len(self._cache) > 400:
                 self._cache.clear()
@@ -189,23 +223,46 @@ class Diagnosis(RoundStages, Calibrations):
                 self._cache[keys[i]] = r
         return [self._cache[k] for k in keys]
 
-    def _replay(self, sets: list) -> list[dict[str, np.ndarray]]:
-        """Replays of ``sets``: one batch, or — for a batch of at least two sets per thread —
-        one batch per thread (interleaved sets), each stepping its MuJoCo batch on its own
-        core. MuJoCo and the platform's kernels release the GIL, so while one thread steps
-        its physics the other runs its Python between steps: the round's screening and
-        refits use both cores with no thread pool handing single simulations around."""
+    def _screen_replay(self) -> BenchReplay | None:
+        """The screening's replay of the current scene with :attr:`screen_integrator`
+        (None: the scene's own integrator)."""
+        integ = self.screen_integrator
+        if integ is None or integ == self.scene.transfer.integrator:
+            return None
+        if self._screen_pair is None or self._screen_pair[0] is not self.replay:
+            import dataclasses
+
+            sc = dataclasses.replace(self.scene, transfer=dataclasses.replace(
+                self.scene.transfer, integrator=integ))
+            self._screen_pair = (self.replay, BenchReplay(
+                sc, self._inp, substeps=self._substeps, nthread=self._nthread))
+        return self._screen_pair[1]
+
+    def _thread_replays(self, replay: BenchReplay) -> list[BenchReplay]:
+        """One single-threaded replay of ``replay``'s bench per thread (made once)."""
+        pool = self._pools.get(id(replay))
+        if pool is None or pool[0] is not replay:
+            pool = (replay, [BenchReplay(replay.scene, replay.poses, substeps=replay.substeps,
+                                         nthread=1) for _ in range(self.threads)])
+            self._pools[id(replay)] = pool
+        return pool[1]
+
+    def _replay(self, sets: list, replay: BenchReplay | None = None
+                ) -> list[dict[str, np.ndarray]]:
+        """Replays of ``sets`` through ``replay`` (default: the reference): one batch, or —
+        for a batch of at least two sets per thread — one batch per thread (interleaved
+        sets), each stepping its MuJoCo batch on its own core. MuJoCo and the platform's
+        kernels release the GIL, so while one thread steps its physics the other runs its
+        Python between steps: the round's screening and refits use both cores with no
+        thread pool handing single simulations around."""
+        replay = self.replay if replay is None else replay
         T = self.threads
         if T < 2 or len(sets) < 2 * T:
-            return self.replay.run(sets)
-        if not self._replays:
-            self._replays = [BenchReplay(self.scene, self.replay.poses,
-                                         substeps=self.replay.substeps, nthread=1)
-                             for _ in range(T)]
+            return replay.run(sets)
         chunks = [list(range(i, len(sets), T)) for i in range(T)]
         with ThreadPoolExecutor(T, thread_name_prefix="rths3d-replay") as pool:
             parts = list(pool.map(lambda rc: rc[0].run([sets[i] for i in rc[1]]),
-                                  zip(self._replays, chunks, strict=True)))
+                                  zip(self._thread_replays(replay), chunks, strict=True)))
         out: list[dict[str, np.ndarray]] = [{}] * len(sets)
         for idx, part in zip(chunks, parts, strict=True):
             for i, r in zip(idx, part, strict=True):
@@ -362,7 +419,7 @@ class Diagnosis(RoundStages, Calibrations):
         scene is rewritten, every free accepted effect refitted on it, a waterfall step
         logged and the change kept in :attr:`revisions`. Returns the accepted effects."""
         revise(self, label)
-        self._replays = []
+        self._pools.clear()
         self._refit_free()
         self._log_step(f"~ {label.removeprefix(PREFIX)}")
         return dict(self.accepted)

@@ -111,7 +111,14 @@ class RoundStages:
             trials[lab] = {**self.accepted, lab: p}
         revs = self._screen_revisions()
         self.progress(f"screen {len(trials)} candidates and {len(revs)} revisions")
-        outs = dict(zip(trials, self.outputs(list(trials.values())), strict=True))
+        # the probes of single-parameter candidates through the screening integrator (their
+        # changes are all the screen uses); the calibrations as fitted, with the reference
+        single = [k for k in trials if k not in MULTI]
+        outs = dict(zip(single, self.outputs([trials[k] for k in single], screen=True),
+                        strict=True))
+        multi = [k for k in trials if k in MULTI]
+        outs.update(zip(multi, self.outputs([trials[k] for k in multi]), strict=True))
+        outs = {k: outs[k] for k in trials}
         # linear estimate along each probe's sensitivity
         est: dict[str, float] = {}
         gain: dict[str, float] = {}
@@ -165,7 +172,8 @@ class RoundStages:
                 cands[lab] = Candidate(lab, eff.param.name, eff.param.unit)
                 trials[lab] = {**self.accepted, lab: probes[lab]}
             self.progress(f"screen {len(extra)} anchors of the leading leg")
-            outs.update(zip(extra, self.outputs([trials[k] for k in extra]), strict=True))
+            outs.update(zip(extra, self.outputs([trials[k] for k in extra], screen=True),
+                            strict=True))
             for lab in extra:
                 estimate(lab, cands[lab])
         for lab, (cand, out) in revs.items():
