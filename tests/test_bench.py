@@ -178,3 +178,27 @@ def test_the_platform_integrator_is_a_scene_choice():
     assert 0 < diff < 2e-5, diff
     with pytest.raises(ConfigError, match="transfer.integrator"):
         load_scene("paper_contact", {"transfer.integrator": "Euler4"})
+
+
+def test_a_batch_of_one_bench_compiles_it_once_and_gives_each_test_its_own_model():
+    """Tests of one bench share one compilation (a copy each); the copies equal a model
+    compiled on its own, field by field, and editing one test's model leaves the others;
+    a bench of another payload mass gets its own model."""
+    import mujoco
+
+    from rths3d.bench.base import bench_models
+
+    sc = load_scene("paper_contact")
+    b = Bench.from_scene(sc)
+    heavy = dataclasses.replace(b, part=dataclasses.replace(b.part, m=2.0 * b.part.m))
+    models = bench_models([b, b, heavy, b])
+    assert len({id(m) for m in models}) == 4
+    alone = b.model()
+    for m in (models[0], models[1], models[3]):
+        for field in ("body_mass", "body_inertia", "actuator_gainprm", "eq_data", "qpos0"):
+            np.testing.assert_array_equal(getattr(m, field), getattr(alone, field))
+    pid = mujoco.mj_name2id(alone, mujoco.mjtObj.mjOBJ_BODY, "exp_mass")  # the part
+    assert pid >= 0
+    assert models[2].body_mass[pid] == pytest.approx(2.0 * alone.body_mass[pid])  # kg
+    models[1].body_mass[pid] += 1.0
+    assert models[0].body_mass[pid] == models[3].body_mass[pid] == alone.body_mass[pid]

@@ -265,6 +265,27 @@ def setpoint_blocks(benches: Sequence[Bench]) -> list[Block]:
     return blocks
 
 
+def bench_models(benches: Sequence[Bench]) -> list[Any]:
+    """The true model of each bench: compiled once per distinct bench, a copy for each
+    other test of the same bench (a batch's tests may edit their own models; a sweep's
+    tests often differ only in the numerical substructure and share one bench)."""
+    import copy
+
+    built: dict[Any, Any] = {}
+    out = []
+    for b in benches:
+        try:
+            m = built.get(b)
+        except TypeError:  # a bench with an unhashable part (arrays): compiled on its own
+            out.append(b.model())
+            continue
+        if m is None:
+            out.append(built.setdefault(b, b.model()))
+        else:
+            out.append(copy.copy(m))
+    return out
+
+
 def platform_batch(benches: Sequence[Bench], nthread: int = 2, settle: float = 0.05,
                    models: Sequence[Any] | None = None,
                    replay: bool = False):  # -> PlatformBatch
@@ -276,7 +297,7 @@ def platform_batch(benches: Sequence[Bench], nthread: int = 2, settle: float = 0
 
     K = len(benches)
     if models is None:
-        models = [b.model() for b in benches]
+        models = bench_models(benches)
     fts = [b.fts() for b in benches]
     any_fts = any(f is not None for f in fts)
     C = np.stack([f[0] if f is not None else np.eye(6) for f in fts]) if any_fts else None
