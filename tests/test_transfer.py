@@ -223,3 +223,48 @@ def test_actuator_steps_allocate_no_arrays(peak_bytes):
         assert peak_bytes(lambda p=part: p(u)) < 4096, type(part).__name__
     comp = Compensator(K, 1, "polynomial", 0.003, 1e-3, 3)
     assert peak_bytes(lambda: comp(u, u)) < 4096
+
+
+@pytest.mark.parametrize("num, den", [
+    ([1.0], [1.0, 2.0]),                                  # first order
+    ([(2 * math.pi * 40) ** 2], [1.0, 2 * 0.6 * 2 * math.pi * 40, (2 * math.pi * 40) ** 2]),
+    ([0.0, 3.0, 7.0, 2.0], [2.0, 5.0, 11.0, 4.0]),         # biproper, leading zero in num
+    ([1.0, -40.0, 600.0], [1.0, 40.0, 600.0, 8000.0]),     # non-minimum phase, 3 states
+    ([0.0, 0.0, 5.0], [1.0, 1.0, 3.0]),                    # leading zeros in num
+    ([4.0], [2.0]),                                        # a static gain
+])
+def test_discretisation_is_python_controls_to_the_last_bit(num, den):
+    """discretise_tf computes what python-control's sample_system(tf2ss(tf)) gives (without
+    slycot, SciPy's realisation and zero-order hold) to the last bit, without importing it;
+    and the identified platform model the LTI path uses."""
+    import control
+
+    from rths3d.transfer.actuators import default_transfer_function, discretise_tf
+
+    cases = [(num, den, 1e-3), (num, den, 2.5e-4)]
+    if len(num) == 1 and num[0] == 1.0:
+        tf_num, tf_den, _ = default_transfer_function()
+        cases.append((tf_num, tf_den, 1e-3))
+    for n, d, dt in cases:
+        Ad, Bd, Cd, Dd = discretise_tf(n, d, dt)
+        sys = control.tf2ss(control.tf(n, d))
+        if sys.nstates == 0:
+            assert Ad.shape == (0, 0) and Dd == float(np.asarray(sys.D)[0, 0])
+            continue
+        ref = control.sample_system(sys, dt, method="zoh")
+        np.testing.assert_array_equal(Ad, np.asarray(ref.A))
+        np.testing.assert_array_equal(Bd, np.asarray(ref.B)[:, 0])
+        np.testing.assert_array_equal(Cd, np.asarray(ref.C)[0])
+        assert Dd == float(np.asarray(ref.D)[0, 0])
+
+
+def test_low_frequency_delay_is_scipys_and_the_first_order_lag():
+    """delay_estimate equals −∠H(jω)/ω of SciPy's freqs at 10⁻³ rad/s, and a first-order
+    lag 1/(τs + 1) delays by τ (s) at low frequency."""
+    from rths3d.transfer.actuators import delay_estimate
+
+    for num, den in (([1.0, -40.0, 600.0], [1.0, 40.0, 600.0, 8000.0]),
+                     ([(2 * math.pi * 40) ** 2], [1.0, 48 * math.pi, (2 * math.pi * 40) ** 2])):
+        _, h = scipy.signal.freqs(num, den, worN=[1e-3])
+        assert delay_estimate(num, den) == pytest.approx(-np.angle(h[0]) / 1e-3, rel=1e-12)
+    assert delay_estimate([1.0], [4e-3, 1.0]) == pytest.approx(4e-3, rel=1e-6)

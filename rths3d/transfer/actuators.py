@@ -5,9 +5,9 @@ The per-step physics lives in :mod:`rths3d.effects.blocks` (delay line, LTI stat
 lag, gain, offset, noise) and :mod:`rths3d.compensation`; this module holds the
 platform's identified heave model G(s) (:func:`default_transfer_function`,
 :func:`follow_servo_settings`, :func:`default_transport_delay`), its zero-order-hold
-discretisation through python-control (:func:`discretise_tf`), and small callables over the
-blocks (:class:`DelayLine`, :class:`LTIActuator`, :class:`SensorModel`; the compensator's in
-:mod:`.compensator`) for users who step one piece on its own. It imports nothing of
+discretisation (:func:`discretise_tf`, python-control's arithmetic), and small callables
+over the blocks (:class:`DelayLine`, :class:`LTIActuator`, :class:`SensorModel`; the
+compensator's in :mod:`.compensator`) for users who step one piece on its own. It imports nothing of
 :mod:`rths3d.compensation`, whose inverse compensator reads the identified model here.
 """
 
@@ -161,28 +161,64 @@ def default_transport_delay(dt: float, actuator_delay: float = 0.0) -> float:
 def discretise_tf(num: Sequence[float], den: Sequence[float], dt: float
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """(A_d, B_d, C_d, D_d) of G(s) = num/den discretised exactly with the input held over
-    ΔT (zero-order hold), in controllable canonical form (python-control)."""
+    ΔT (zero-order hold), in controllable canonical form.
+
+    The arithmetic of python-control's ``sample_system(tf2ss(tf(num, den)), dt, "zoh")``
+    without slycot (SciPy's ``tf2ss`` realisation, then the matrix exponential of
+    [[A, B], [0, 0]]·ΔT as SciPy's ``cont2discrete``), the same to the last bit
+    (tests/test_transfer_lti.py), computed here with ``scipy.linalg.expm``: importing
+    python-control (and with it ``scipy.signal`` and matplotlib) cost every sweep worker 2 s
+    of its start for this one conversion. (With slycot installed, python-control realises a
+    minimal form instead: the same input-output map in other coordinates.)
+    """
     num = np.atleast_1d(np.asarray(num, float))
     den = np.atleast_1d(np.asarray(den, float))
     if den.size < num.size or den[0] == 0:
         raise ConfigError("transfer.den", den.tolist(), "transfer function must be proper")
-    import control  # python-control imports matplotlib: loaded when a model is designed
+    A, B, C, D = _tf2ss(num, den)
+    if A.shape[0] == 0:
+        return np.zeros((0, 0)), np.zeros(0), np.zeros(0), D
+    from scipy.linalg import expm
 
-    sys = control.tf2ss(control.tf(num, den))
-    if sys.nstates == 0:
-        return np.zeros((0, 0)), np.zeros(0), np.zeros(0), float(np.asarray(sys.D)[0, 0])
-    d = control.sample_system(sys, dt, method="zoh")
-    return (np.asarray(d.A), np.asarray(d.B)[:, 0].copy(), np.asarray(d.C)[0].copy(),
-            float(np.asarray(d.D)[0, 0]))
+    n = A.shape[0]
+    em = np.zeros((n + 1, n + 1))
+    em[:n, :n] = A
+    em[:n, n] = B
+    ms = expm(dt * em)[:n, :]
+    return ms[:, :n].copy(), ms[:, n].copy(), C, D
+
+
+def _tf2ss(num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                      float]:
+    """Controllable canonical realisation (A, B (n,), C (n,), D) of a proper SISO num/den,
+    as python-control hands it to SciPy's ``tf2ss``: both polynomials stripped of leading
+    zeros, then normalised by den[0]."""
+    num = np.trim_zeros(num, "f")
+    if num.size == 0:
+        num = np.zeros(1)
+    den = np.trim_zeros(den, "f")
+    num, den = num / den[0], den / den[0]
+    K = den.size
+    if K == 1:  # a static gain
+        return np.zeros((0, 0)), np.zeros(0), np.zeros(0), float(num[-1])
+    num = np.concatenate([np.zeros(K - num.size), num])
+    A = np.zeros((K - 1, K - 1))
+    A[0] = -den[1:]
+    A[1:, :-1] = np.eye(K - 2)
+    B = np.zeros(K - 1)
+    B[0] = 1.0
+    C = num[1:] - num[0] * den[1:]
+    return A, B, C, float(num[0])
 
 
 def delay_estimate(num: Sequence[float], den: Sequence[float]) -> float:
-    """Low-frequency group delay −dφ/dω at ω → 0 (s) of G(s) = num/den."""
-    import scipy.signal  # scipy.signal costs a second to import: only when asked
-
+    """Low-frequency group delay −dφ/dω at ω → 0 (s) of G(s) = num/den: −∠G(jω)/ω at
+    ω = 10⁻³ rad/s (SciPy's ``freqs`` at that one frequency, whose import cost each sweep
+    worker a second)."""
     w = 1e-3
-    _, h = scipy.signal.freqs(num, den, worN=[w])
-    return float(-np.angle(h[0]) / w)
+    s = 1j * w
+    h = np.polyval(np.asarray(num, float), s) / np.polyval(np.asarray(den, float), s)
+    return float(-np.angle(h) / w)
 
 
 class _Blocks:
