@@ -3,11 +3,13 @@
 Run ``python benchmarks/sweep.py [--quick]``; prints ONE JSON line:
 
 ``tests_per_s_1worker``, ``tests_per_s_2workers``, ``parallel_efficiency``
-    the same small LTI sweep run with 1 and with 2 local worker processes, side by side
-    (efficiency = rate₂ / (2 rate₁)). The 1-worker run is this process, held to one core
-    (``RTHS3D_THREADS=1``, as each pool worker is), and is the process's first sweep: it
-    loads the sweep's imports and compiled kernels as each worker of the 2-worker run does
-    at its start (both runs pay their start once, as from the command line).
+    the same LTI sweep (256 tests of the Table-1 grid in 4 batches; ``--quick`` 64) run with
+    1 and with 2 local worker processes, side by side (efficiency = rate₂ / (2 rate₁)). Each
+    run is a fresh Python process, as from the command line, timed from its start to its
+    end: both pay the interpreter's start, the imports and the compiled kernels' loading once
+    (the 1-worker run in its own process, held to one core with ``RTHS3D_THREADS=1`` as each
+    pool worker is; the 2-worker run in the sweep process, whose workers are forked from it
+    warm). ``parallel_efficiency_1024`` (full run only): the same for 1024 tests.
 ``machine_parallel_efficiency``
     the machine's own ceiling for that figure, measured in the same run: a compiled
     arithmetic loop (no memory traffic, no GIL) on one thread, then on two at once
@@ -58,6 +60,28 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 SWEEPS = REPO / "scenes" / "sweeps"
+
+
+def _timed_cli_sweep(n: int, out: Path, workers: int) -> float:
+    """Wall time (s) of a fresh process that runs ``n`` tests of the Table-1 LTI grid (4
+    batches) with ``workers`` local workers (1: in that process, on one core)."""
+    import subprocess
+
+    env = dict(os.environ)
+    if workers == 1:
+        env["RTHS3D_THREADS"] = "1"  # one worker, one core (as each pool worker)
+    shutil.rmtree(out, ignore_errors=True)
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, __file__, "--subset-run", str(n), str(workers), str(out)],
+                   check=True, env=env)
+    return time.perf_counter() - t0
+
+
+def _subset_run(n: int, workers: int, out: str) -> None:
+    from rths3d.dataset import load_spec, run_sweep
+
+    spec = _subset(load_spec(SWEEPS / "table1_lti.toml"), n, n_batches=4)
+    run_sweep(spec, out, workers=workers, progress=False)
 
 
 def _timed_sweep(spec, out: Path, workers: int) -> tuple[float, object]:
@@ -212,7 +236,13 @@ def lm_vs_adam(X, y, seeds=(0, 1, 2, 3, 4), hidden=(5,), adam_cap_s: float = 30.
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="short version (subsets, scaled)")
+    ap.add_argument("--subset-run", nargs=3, metavar=("N", "WORKERS", "OUT"),
+                    help=argparse.SUPPRESS)  # one timed run of the throughput figures
     args = ap.parse_args()
+    if args.subset_run:
+        n, workers, out = args.subset_run
+        _subset_run(int(n), int(workers), out)
+        return
     from rths3d.dataset import load_spec, training_data
 
     res: dict = {"quick": bool(args.quick), "cpus": os.cpu_count()}
@@ -220,23 +250,20 @@ def main() -> None:
     try:
         lti = load_spec(SWEEPS / "table1_lti.toml")
         stew = load_spec(SWEEPS / "paper280_stewart.toml")
-        # throughput: the same LTI subset with 1 and 2 workers, side by side
-        small = _subset(lti, 64 if args.quick else 256, n_batches=4)
-        threads = os.environ.get("RTHS3D_THREADS")
-        os.environ["RTHS3D_THREADS"] = "1"  # one worker, one core (as each pool worker)
-        try:
-            t1, _ = _timed_sweep(small, tmp / "w1", 1)
-        finally:
-            if threads is None:
-                os.environ.pop("RTHS3D_THREADS")
-            else:
-                os.environ["RTHS3D_THREADS"] = threads
-        t2, _ = _timed_sweep(small, tmp / "w2", 2)
+        # throughput: the same LTI subset with 1 and 2 workers, side by side, each a fresh
+        # process as from the command line
+        n_small = 64 if args.quick else 256
+        t1 = _timed_cli_sweep(n_small, tmp / "w1", 1)
+        t2 = _timed_cli_sweep(n_small, tmp / "w2", 2)
         res["machine_parallel_efficiency"] = machine_parallel_efficiency()
-        n_small = len(small.tests())
         res["tests_per_s_1worker"] = n_small / t1
         res["tests_per_s_2workers"] = n_small / t2
         res["parallel_efficiency"] = t1 / (2.0 * t2)
+        res["throughput_tests"] = n_small
+        if not args.quick:
+            t1 = _timed_cli_sweep(1024, tmp / "w1", 1)
+            t2 = _timed_cli_sweep(1024, tmp / "w2", 2)
+            res["parallel_efficiency_1024"] = t1 / (2.0 * t2)
         # the paper's 280-test sweep on the Stewart platform
         n280 = len(stew.tests())
         if args.quick:

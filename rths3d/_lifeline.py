@@ -20,10 +20,15 @@ import threading
 __all__ = ["worker_init"]
 
 
-def worker_init(lifeline=None, progress=None, warm: bytes | None = None) -> None:
+def worker_init(lifeline=None, progress=None, warm: bytes | None = None,
+                inherited=None) -> None:
     """Pool initializer: arm the lifeline and the parent-death signal, then the worker's
     set-up and warm-up (:func:`rths3d.dataset.runner.worker_setup`: ``progress`` is the
-    sweep's shared counter, ``warm`` the pickled work that loads the kernels a batch uses)."""
+    sweep's shared counter, ``warm`` the pickled work that loads the kernels a batch uses;
+    None for a worker forked from a warm sweep process). ``inherited``: the lifeline's write
+    end a forked worker inherited, closed first (only the sweep process may hold it)."""
+    if inherited is not None:
+        inherited.close()
     if lifeline is not None and not _kill_on_eof(lifeline):
         threading.Thread(target=_watch, args=(lifeline,), daemon=True,
                          name="rths3d-lifeline").start()

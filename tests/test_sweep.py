@@ -130,9 +130,57 @@ def test_rerun_skips_finished_work(tiny_spec, tmp_path) -> None:
 
 
 def test_two_workers_equal_one_worker(tiny_spec, reference_table, tmp_path) -> None:
-    """The process-pool run (2 workers) gives exactly the in-process table (deterministic)."""
-    two = run_sweep(load_spec(tiny_spec), tmp_path, workers=2, progress=False)
+    """The process-pool run (2 workers) gives exactly the in-process table (deterministic):
+    workers started from a forkserver here (a test process has threads), and forked from a
+    warm, single-threaded sweep process (a command line's)."""
+    two = run_sweep(load_spec(tiny_spec), tmp_path / "a", workers=2, progress=False)
     pd.testing.assert_frame_equal(_sorted(two), _sorted(reference_table))
+    code = ("import sys, threading\n"
+            "from rths3d.dataset import load_spec, run_sweep\n"
+            "from rths3d.dataset import execute\n"
+            "used = []\n"
+            "pool = execute._pool_context\n"
+            "def spy(spec, todo):\n"
+            "    ctx, warm = pool(spec, todo)\n"
+            "    used.append((ctx.get_start_method(), warm is None))\n"
+            "    return ctx, warm\n"
+            "execute._pool_context = spy\n"
+            "run_sweep(load_spec(sys.argv[1]), sys.argv[2], workers=2, progress=True)\n"
+            "print(used, threading.active_count())\n")
+    p = subprocess.run([sys.executable, "-c", code, str(tiny_spec), str(tmp_path / "b")],
+                       capture_output=True, text=True, timeout=300,
+                       env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[1])})
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split("\n")[-2] == "[('fork', True)] 1"  # forked, warm, no thread left
+    forked = pd.read_parquet(tmp_path / "b" / "tiny.parquet")
+    pd.testing.assert_frame_equal(_sorted(forked), _sorted(reference_table))
+
+
+def test_workers_fork_only_from_a_process_without_threads() -> None:
+    """fork_is_safe: a single-threaded process may fork its workers; one thread more, or a
+    bad RTHS3D_START_METHOD, and it may not (the latter a one-line error naming it)."""
+    import threading
+
+    from rths3d.dataset.execute import START_ENV, _start_method, fork_is_safe
+
+    code = ("import threading, time\n"
+            "from rths3d.dataset.execute import fork_is_safe\n"
+            "a = fork_is_safe()\n"
+            "t = threading.Thread(target=time.sleep, args=(0.3,)); t.start()\n"
+            "print(a, fork_is_safe())\n")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       timeout=120)
+    assert p.stdout.split() == ["True", "False"], p.stderr
+    if threading.active_count() > 1:  # pytest-xdist's own threads
+        assert not fork_is_safe()
+    os.environ[START_ENV] = "spawn"
+    try:
+        from rths3d.errors import ConfigError
+
+        with pytest.raises(ConfigError, match="RTHS3D_START_METHOD: 'spawn'"):
+            _start_method()
+    finally:
+        del os.environ[START_ENV]
 
 
 def test_killed_sweep_resumes_to_the_same_table(tiny_spec, reference_table, tmp_path) -> None:
@@ -491,9 +539,9 @@ def test_cli_sweep_whose_every_test_is_refused_is_one_error_line(tmp_path) -> No
 @pytest.mark.skipif(not os.path.isdir("/proc"), reason="reads /proc")
 def test_kill_9_of_a_pool_sweep_leaves_nothing_running(tiny_spec, reference_table,
                                                        tmp_path) -> None:
-    """`kill -9` of the sweep process alone (not its group), mid-way with 2 workers: within
-    5 s no process it started is left (workers, forkserver, resource tracker); the restart
-    finishes and its table equals the uninterrupted run's."""
+    """`kill -9` of the sweep process alone (not its group), mid-way with 2 workers (forked
+    from it): within 5 s no process it started is left; the restart finishes and its table
+    equals the uninterrupted run's."""
     out = tmp_path / "killed"
     cmd = [sys.executable, "-m", "rths3d", "sweep", str(tiny_spec), "--out", str(out),
            "--workers", "2", "--quiet"]
@@ -501,9 +549,9 @@ def test_kill_9_of_a_pool_sweep_leaves_nothing_running(tiny_spec, reference_tabl
                             start_new_session=True)
     try:
         deadline = time.time() + 120
-        # mid-way: the workers are up (the sweep process, forkserver, tracker, 2 workers)
+        # mid-way: the workers are up (the sweep process and its 2 workers)
         while time.time() < deadline and proc.poll() is None \
-                and len(alive_in_session(proc.pid)) < 5:
+                and len(alive_in_session(proc.pid)) < 3:
             time.sleep(0.05)
         assert proc.poll() is None, "the sweep finished before it could be killed"
         assert not (out / "tiny.parquet").exists()

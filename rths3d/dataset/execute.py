@@ -135,6 +135,7 @@ def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = 
     # every mistake is reported before the output folder is created or touched
     if workers is not None and (isinstance(workers, bool) or workers < 1):
         raise ConfigError("workers", workers, "must be >= 1")
+    _start_method()
     rows_fn = rows_fn or run_rows
     spec = prepare(spec)
     if scheduler:
@@ -154,8 +155,11 @@ def run_sweep(spec: SweepSpec, out: str | os.PathLike, *, workers: int | None = 
     if progress:
         from tqdm import tqdm
 
+        class _Bar(tqdm):  # type: ignore[misc, type-arg]
+            monitor_interval = 0  # no monitor thread: the workers can be forked (fork_is_safe)
+
         # the bar moves within a batch too (by simulated time), so it counts fractions
-        bar = tqdm(total=n_total, initial=n_done, desc=f"sweep {spec.name}", unit="test",
+        bar = _Bar(total=n_total, initial=n_done, desc=f"sweep {spec.name}", unit="test",
                    dynamic_ncols=True,
                    bar_format="{l_bar}{bar}| {n:.0f}/{total_fmt} [{elapsed}<{remaining}, "
                               "{rate_fmt}{postfix}]")
@@ -224,25 +228,95 @@ def _rows_in_worker(rows_fn: RowsFn, spec: SweepSpec, tests: list[dict[str, Any]
     return _rows_reporting(rows_fn, spec, tests, rec_dir, add_progress)
 
 
-def _run_pool(spec, todo, n, rec_dir, rows_fn, finished, bar) -> None:
+def fork_is_safe() -> bool:
+    """Whether this process can start its sweep workers by ``fork``: a POSIX ``fork`` start
+    method, no Python thread but this one (a thread holding a lock at the fork would leave
+    it held in the child) and no torch (its OpenMP pool is not fork-safe once used)."""
     import multiprocessing as mp
+    import sys
+
+    return ("fork" in mp.get_all_start_methods() and threading.active_count() == 1
+            and "torch" not in sys.modules)
+
+
+def _stop_tqdm_monitor() -> None:
+    """End tqdm's monitor thread (it watches open bars every 10 s and starts again with the
+    next bar): a thread this process need not have while it forks its workers."""
+    import sys
+
+    std = sys.modules.get("tqdm.std")
+    monitor = getattr(getattr(std, "tqdm", None), "monitor", None)
+    if monitor is not None:
+        monitor.exit()  # sets its event and joins it
+        std.tqdm.monitor = None  # type: ignore[union-attr]
+
+
+START_ENV = "RTHS3D_START_METHOD"
+"""Environment variable: how local sweep workers start — ``auto`` (default: forked from the
+warm sweep process where :func:`fork_is_safe`, else from a forkserver) or ``forkserver``
+(always a clean process)."""
+
+
+def _start_method() -> str:
+    how = os.environ.get(START_ENV, "auto") or "auto"
+    if how not in ("auto", "forkserver"):
+        raise ConfigError(START_ENV, how, "auto or forkserver")
+    return how
+
+
+def _pool_context(spec: SweepSpec, todo: list) -> tuple[Any, bytes | None]:
+    """The workers' start method and their warm-up.
+
+    Where :func:`fork_is_safe` (and :data:`START_ENV` is not ``forkserver``), this process
+    loads the sweep's imports and compiled kernels once (:func:`~rths3d.dataset.runner.
+    warm_up` of one test per setting, single-threaded) and the workers are forked from it:
+    they start warm, sharing that memory, in milliseconds. Otherwise they start from a
+    forkserver (a clean process: no inherited threads of MuJoCo or torch) and each warms
+    itself before its first batch (the pickled warm-up, unpickled after its lifeline is
+    armed): ≈ 2 s each on this machine.
+    """
+    import multiprocessing as mp
+
+    from .runner import THREADS_ENV, warm_up
+
+    if _start_method() == "auto" and fork_is_safe():
+        threads = os.environ.get(THREADS_ENV)
+        os.environ[THREADS_ENV] = "1"  # no MuJoCo thread pool in the process to fork
+        try:
+            warm_up(spec, warm_tests(todo))
+        finally:
+            if threads is None:
+                os.environ.pop(THREADS_ENV, None)
+            else:
+                os.environ[THREADS_ENV] = threads
+        _stop_tqdm_monitor()  # a progress bar's monitor thread, started by the warm-up
+        if fork_is_safe():  # the warm-up started no other thread
+            import gc
+
+            # what this process holds moves to the collector's permanent generation: a
+            # worker's collections then do not walk (and so copy) the pages it inherited
+            gc.collect()
+            gc.freeze()
+            return mp.get_context("fork"), None
+    return mp.get_context("forkserver"), pickle.dumps((spec, warm_tests(todo)))
+
+
+def _run_pool(spec, todo, n, rec_dir, rows_fn, finished, bar) -> None:
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
-    # forkserver: workers start from a clean process (no inherited threads of MuJoCo/torch)
-    ctx = mp.get_context("forkserver")
+    ctx, warm = _pool_context(spec, todo)
     done = ctx.Value("d", 0.0)  # tests' worth of work the workers have done
     start = bar.n if bar is not None else 0.0
     # Lifeline: only this process holds the pipe's write end. Each worker watches the read
     # end; EOF means this process has gone (even by SIGKILL), and the worker exits, so that
-    # nothing is left running: with the workers gone, the forkserver and the resource
-    # tracker end too.
+    # nothing is left running: with the workers gone, the forkserver (if any) and the
+    # resource tracker end too. A forked worker inherits a copy of the write end: it closes
+    # it first thing, else the pipe would never see EOF while a worker lives.
     lifeline_r, lifeline_w = ctx.Pipe(duplex=False)
-    # warm workers: each loads the imports and compiled kernels of the sweep's settings once,
-    # before its first batch (pickled here, unpickled after its lifeline is armed)
-    warm = pickle.dumps((spec, warm_tests(todo)))
+    inherited = lifeline_w if ctx.get_start_method() == "fork" else None
     try:
         with ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=worker_init,
-                                 initargs=(lifeline_r, done, warm)) as pool:
+                                 initargs=(lifeline_r, done, warm, inherited)) as pool:
             pending = {}
             it = iter(todo)
             # keep at most 2 batches per worker in flight so finished ones are written
@@ -278,6 +352,10 @@ def _run_pool(spec, todo, n, rec_dir, rows_fn, finished, bar) -> None:
     finally:
         lifeline_w.close()
         lifeline_r.close()
+        if inherited is not None:
+            import gc
+
+            gc.unfreeze()  # frozen before the fork (_pool_context)
 
 
 SCHEDULER_TIMEOUT = 10.0
