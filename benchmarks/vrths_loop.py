@@ -11,7 +11,10 @@ Prints ONE JSON line:
   batch_rtf_stewart  K_stewart tests stepped together on the platform (aggregate)
   batch_rtf_lti      K_lti tests stepped together on the LTI path (aggregate)
   bare_rtf_stewart, batch_bare_rtf_stewart   the machine's limits measured in the same run:
-                     bare mj_step of the model, and raw mujoco.batch stepping of K_stewart
+                     bare mj_step of the model, and raw mujoco.batch stepping of K_stewart,
+                     both along the test's motion (the servo set-point rates of its
+                     commanded poses written each step: the part meets its contact as in
+                     the test) for the test's whole length
   batch_stewart_over_bare   batch_rtf_stewart over batch_bare_rtf_stewart, the median of
                      pairs measured back to back (floor 0.95)
   first_runs_s       wall time of the first (tiny) single and batch runs of both paths in the
@@ -35,6 +38,20 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+
+
+def leg_rates(transfer, record, dt: float):
+    """(N, 6) servo set-point rates (m/s) that move the legs along a record's commanded poses
+    (``pose_cmd.*``, inverse kinematics of the transfer's platform): a bare step's controls
+    for the same motion as the test's."""
+    import numpy as np
+
+    from rths3d.platform.kinematics import inverse_kinematics
+    from rths3d.record import DOFS
+
+    poses = np.column_stack([record.columns[f"pose_cmd.{c}"] for c in DOFS])
+    L = inverse_kinematics(transfer.sim.config.geometry, poses)
+    return np.diff(L, axis=0, append=L[-1:]) / dt
 
 
 def main() -> None:
@@ -75,17 +92,23 @@ def main() -> None:
     run(scene_with(fast, {"duration": 0.1}), "stewart", reference=False)
     for _ in range(reps):
         r = run(sc, "stewart", reference=False)
+        motion = r.record  # the test's commanded poses, for the bare steps' controls
         rtf_st.append(r.rtf)
         rtf_if.append(run(fast, "stewart", reference=False).rtf)
-        # bare mj_step of the same model (same number of physics steps), measured right after
+        # bare mj_step of the same model along the same motion, measured right after: the
+        # servo set-point rates that move the legs along the test's commanded poses, so that
+        # the part meets its contact as in the test (from rest, the bare model never would)
         from rths3d.transfer import StewartTransfer
 
         tr = StewartTransfer([sc.with_transfer("stewart")])
         m, d = tr.sim.model, tr.sim.batch.d
-        nstep = sc.n_steps * sc.transfer.substeps
+        rates = leg_rates(tr, motion, sc.dt)
+        a0, sub = tr.sim._a0, sc.transfer.substeps
+        ctrl = d.ctrl
         t0 = time.perf_counter()
         step = mujoco.mj_step
-        for _ in range(nstep):
+        for k in range(sc.n_steps * sub):
+            ctrl[a0:a0 + 6] = rates[k // sub]
             step(m, d)
         bare = time.perf_counter() - t0
         ratio.append(r.wall / bare)
@@ -117,15 +140,22 @@ def main() -> None:
 
     from rths3d.transfer import StewartTransfer
 
-    raw = Batch(StewartTransfer([sc.with_transfer("stewart")]).sim.model, args.k_stewart,
-                nthread=2)
-    nraw = int(sc.n_steps * sc.transfer.substeps / 5)
+    tr = StewartTransfer([sc.with_transfer("stewart")])
+    raw = Batch(tr.sim.model, args.k_stewart, nthread=2)
+    raw_ctrl = raw.bind("ctrl")
+    rates = leg_rates(tr, motion, sc.dt)  # the single test's motion, for every test
+    a0, sub = tr.sim._a0, sc.transfer.substeps
+    nraw = sc.n_steps * sub
+    raw_state = raw.bind("qpos").copy(), raw.bind("qvel").copy(), raw.bind("act").copy()
 
     def raw_rtf() -> float:
+        for name, x in zip(("qpos", "qvel", "act"), raw_state, strict=True):
+            raw.bind(name)[:] = x  # from rest again
         t0 = time.perf_counter()
-        for _ in range(nraw):
+        for k in range(nraw):
+            raw_ctrl[:, a0:a0 + 6] = rates[k // sub]
             raw.step()
-        return args.k_stewart * nraw * sc.dt / sc.transfer.substeps / (time.perf_counter() - t0)
+        return args.k_stewart * nraw * sc.dt / sub / (time.perf_counter() - t0)
 
     pairs = [(batch("stewart", args.k_stewart), raw_rtf()) for _ in range(reps)]
     b_st = med([a for a, _ in pairs])
