@@ -289,13 +289,13 @@ def _pool_context(spec: SweepSpec, todo: list) -> tuple[Any, bytes | None]:
                 os.environ.pop(THREADS_ENV, None)
             else:
                 os.environ[THREADS_ENV] = threads
-        _stop_tqdm_monitor()  # a progress bar's monitor thread, started by the warm-up
-        if fork_is_safe():  # the warm-up started no other thread
-            import gc
+        import gc
 
+        _stop_tqdm_monitor()  # a progress bar's monitor thread, started by the warm-up
+        gc.collect()  # the warm-up's objects (a MuJoCo batch ends its threads) go first
+        if fork_is_safe():  # the warm-up started no other thread
             # what this process holds moves to the collector's permanent generation: a
             # worker's collections then do not walk (and so copy) the pages it inherited
-            gc.collect()
             gc.freeze()
             return mp.get_context("fork"), None
     return mp.get_context("forkserver"), pickle.dumps((spec, warm_tests(todo)))
