@@ -145,7 +145,7 @@ class Diagnosis(RoundStages, Calibrations):
         self.replay = BenchReplay(scene, inp, substeps=substeps, nthread=nthread)
         self.threads = max(1, int(nthread))
         """Threads of a round's batched replays (:meth:`outputs`)."""
-        self._pools: dict[int, tuple[BenchReplay, list[BenchReplay]]] = {}
+        self._pools: dict[BenchReplay, list[BenchReplay]] = {}
         if screen_integrator not in (None, *SCREEN_INTEGRATORS):
             raise ConfigError("screen_integrator", screen_integrator,
                               f"one of {', '.join(SCREEN_INTEGRATORS)}")
@@ -198,7 +198,7 @@ class Diagnosis(RoundStages, Calibrations):
         batch; cached. ``screen``: the screening's probes, through
         :attr:`screen_integrator` (anchored on the reference replay of the accepted
         effects)."""
-        fast = self._screen_replay() if screen else None
+        fast = self._screen_replay() if screen and effect_sets else None
         if fast is None:
             return self._outputs(effect_sets, self.replay, "")
         ref = self.predict()
@@ -240,12 +240,12 @@ class Diagnosis(RoundStages, Calibrations):
 
     def _thread_replays(self, replay: BenchReplay) -> list[BenchReplay]:
         """One single-threaded replay of ``replay``'s bench per thread (made once)."""
-        pool = self._pools.get(id(replay))
-        if pool is None or pool[0] is not replay:
-            pool = (replay, [BenchReplay(replay.scene, replay.poses, substeps=replay.substeps,
-                                         nthread=1) for _ in range(self.threads)])
-            self._pools[id(replay)] = pool
-        return pool[1]
+        pool = self._pools.get(replay)
+        if pool is None:
+            pool = self._pools[replay] = [
+                BenchReplay(replay.scene, replay.poses, substeps=replay.substeps, nthread=1)
+                for _ in range(self.threads)]
+        return pool
 
     def _replay(self, sets: list, replay: BenchReplay | None = None
                 ) -> list[dict[str, np.ndarray]]:

@@ -113,12 +113,11 @@ class RoundStages:
         self.progress(f"screen {len(trials)} candidates and {len(revs)} revisions")
         # the probes of single-parameter candidates through the screening integrator (their
         # changes are all the screen uses); the calibrations as fitted, with the reference
-        single = [k for k in trials if k not in MULTI]
-        outs = dict(zip(single, self.outputs([trials[k] for k in single], screen=True),
-                        strict=True))
-        multi = [k for k in trials if k in MULTI]
-        outs.update(zip(multi, self.outputs([trials[k] for k in multi]), strict=True))
-        outs = {k: outs[k] for k in trials}
+        outs: dict[str, dict[str, np.ndarray]] = {}
+        for screen in (True, False):
+            labs = [k for k in trials if (k not in MULTI) == screen]
+            outs.update(zip(labs, self.outputs([trials[k] for k in labs], screen=screen),
+                            strict=True))
         # linear estimate along each probe's sensitivity
         est: dict[str, float] = {}
         gain: dict[str, float] = {}

@@ -28,7 +28,7 @@ import numba
 import numpy as np
 from numba import literal_unroll, types
 
-from ..effects.blocks import njit, padded_kernels, run_chain
+from ..effects.blocks import inline_njit, njit, padded_kernels, run_chain
 from ..jit import AnyLayout
 from ..numerical._kernels import linear_step
 from ..safety import check_command, check_measured
@@ -77,39 +77,24 @@ _RK4 = int(mujoco.mjtIntegrator.mjINT_RK4)
 _EULER = int(mujoco.mjtIntegrator.mjINT_EULER)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _step_warm(m, d, integ):
-    """``mj_step`` of a state whose position and velocity stages are already evaluated
-    (the previous step's end-of-step ``mj_forward``; only the control and the servo's
-    set-point changed since): ``mj_step``'s own sequence with its first evaluation from the
-    actuation stage on (the same arithmetic on the same inputs, one evaluation's position
-    and velocity stages cheaper)."""
+@inline_njit
+def _step_warm(m, d, integ, rate_only):
+    """``mj_step`` of a state the previous step's end-of-step ``mj_forward`` evaluated, when
+    only the control and the servo's set-point changed since: ``mj_step``'s own sequence
+    with its first evaluation from the actuation stage on (the position and velocity
+    stages are those of the state). ``rate_only``: only the set-point *rate* changed (the
+    control of an integrator-dynamics actuator, whose force depends on its activation, not
+    on its control), which changes the activation's derivative and nothing else — the
+    actuation stage is recomputed (``act_dot``) and the evaluation's accelerations stand
+    (the constraint solve it would repeat starts from the same warm start with the same
+    inputs and gives the same ``qacc``): bare ``mj_step``'s count of constraint solves. The
+    same arithmetic on the same inputs either way."""
     _check_pos(m, d)
     _check_vel(m, d)
-    _forward_skip(m, d, _VEL, 1)
-    _check_acc(m, d)
-    if integ == _RK4:
-        _rk(m, d, 4)
-    elif integ == _EULER:
-        _euler(m, d)
+    if rate_only:
+        _fwd_actuation(m, d)
     else:
-        _implicit(m, d)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _step_rate(m, d, integ):
-    """``mj_step`` of a state evaluated in full by the previous step's end-of-step
-    ``mj_forward`` when only the set-point *rate* changed since (the control of an
-    integrator-dynamics actuator: its force depends on the activation, not on the
-    control). The control changes the activation's derivative and nothing else, so the
-    actuation stage is recomputed (``act_dot``) and the evaluation's accelerations stand:
-    the constraint solve it would repeat starts from the same warm start with the same
-    inputs and gives the same ``qacc``. The same arithmetic as :func:`_step_warm` on the
-    same inputs, one evaluation's actuation-to-constraint stages cheaper (bare ``mj_step``'s
-    count of evaluations per step)."""
-    _check_pos(m, d)
-    _check_vel(m, d)
-    _fwd_actuation(m, d)
+        _forward_skip(m, d, _VEL, 1)
     _check_acc(m, d)
     if integ == _RK4:
         _rk(m, d, 4)
@@ -125,7 +110,7 @@ def physics_warm(run, mj, cnew, act, s0, cprev, integ, ctrl, zoh, rate_only):
     place, the first substep from the warm state (:func:`_step_warm`): the previous step of
     this range ended with ``mj_forward`` of the same state in the same ``MjData``; with
     ``rate_only`` (every actuator's force independent of its control) a ramped test's first
-    substep reuses that evaluation whole (:func:`_step_rate`). A batch's
+    substep reuses that evaluation whole (:func:`_step_warm`). A batch's
     tests (state rows) keep their own ``MjData`` live too: the row is not loaded again (the
     range's first step loaded it), only saved after the step with the derived fields the
     driver reads; the servo's set-point (``act`` and ``ctrl``, written into the row by the
@@ -139,10 +124,8 @@ def physics_warm(run, mj, cnew, act, s0, cprev, integ, ctrl, zoh, rate_only):
             if rows:  # the set-point (held: act; ramped: its rate, ctrl) as the driver wrote it
                 _mj_setState(m, d, _f64p(act[k:k + 1].ctypes.data), _ACT)
                 _mj_setState(m, d, _f64p(ctrl[k:k + 1].ctypes.data), _CTRL)
-            if rate_only and not zoh[k]:
-                _step_rate(m, d, integ)
-            else:  # a held set-point jumps now: its force changes, the step evaluates it
-                _step_warm(m, d, integ)
+            # a held set-point jumps now: its force changes, the step evaluates it
+            _step_warm(m, d, integ, rate_only and not zoh[k])
             for _ in range(mj[9] - 1):
                 _mj_step(m, d)
             da = numba.carray(_f64p(mj[8][k]), s0 + 6)
