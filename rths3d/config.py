@@ -50,6 +50,12 @@ class NumericalConfig:
     state space with the force held over a step, unconditionally stable on its own) or
     ``central_difference`` (explicit, stable for ω_max ΔT < 2, checked with the part's
     spring added). The coupled loop (force held over a step) is only conditionally stable.
+
+    ``kind``: ``linear`` (these matrices) or ``opensees`` (an OpenSees model: ``model`` file,
+    ``interface`` [node, dof] per interface DOF, the OpenSees ``integrator`` and its
+    ``integrator_args``, ``algorithm``, force ``loads`` [node, dof, factor], ``ground_dof``,
+    convergence ``tol`` (m) and ``max_iter``; M, C, K, Γ are then placeholders, see
+    :mod:`rths3d.numerical.opensees`).
     """
 
     M: Matrix
@@ -57,11 +63,26 @@ class NumericalConfig:
     K: Matrix
     gamma: Matrix
     integrator: str = "exact"
+    kind: str = "linear"
+    model: str = ""
+    interface: tuple[tuple[int, int], ...] = ()
+    integrator_args: tuple[float, ...] = ()
+    algorithm: str = "Newton"
+    loads: tuple[tuple[float, ...], ...] = ()
+    ground_dof: int = 1
+    tol: float = 1e-12
+    max_iter: int = 25
 
     @property
     def n(self) -> int:
         """Number of numerical DOFs."""
         return len(self.M)
+
+
+NUMERICAL_EXTRA = ("kind", "model", "interface", "integrator_args", "algorithm", "loads",
+                   "ground_dof", "tol", "max_iter")
+"""Fields of :class:`NumericalConfig` that only another ``kind`` than ``linear`` uses (not in
+a linear scene's parameters)."""
 
 
 @dataclass(frozen=True)
@@ -362,6 +383,8 @@ class Scene:
             for f in fields(obj):
                 v = getattr(obj, f.name)
                 if sec == "experiment" and f.name in EXPERIMENT_EXTRA and not v:
+                    continue
+                if sec == "numerical" and f.name in NUMERICAL_EXTRA and obj.kind == "linear":
                     continue
                 out[f"{sec}.{f.name}"] = v
         for e in self.effects:

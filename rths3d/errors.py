@@ -37,6 +37,20 @@ class ConfigError(RthsError, ValueError):
                 (self.field, self.value, self.limit), self.__dict__)
 
 
+class NumericalFailure(RthsError, RuntimeError):
+    """A numerical substructure could not advance a step (e.g. an OpenSees ``analyze`` that
+    did not converge): the loop stops test ``test`` safely at that step and keeps its
+    record; ``reason`` says what and when."""
+
+    def __init__(self, test: int, reason: str):
+        self.test = int(test)
+        self.reason = reason
+        super().__init__(reason)
+
+    def __reduce__(self):
+        return (type(self), (self.test, self.reason))
+
+
 class MissingDependency(RthsError, ImportError):
     """An optional dependency a feature needs is not installed; the message names the extra
     to install, e.g. ``the screenshot needs playwright: pip install 'rths3d[browser]'``."""

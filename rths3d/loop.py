@@ -41,9 +41,9 @@ from tqdm import tqdm
 
 from .config import Scene
 from .effects.blocks import kernel_tuple
-from .errors import ConfigError
+from .errors import ConfigError, NumericalFailure
 from .metadata import record_metas
-from .numerical import LinearSubstructure, NumericalFactory
+from .numerical import NumericalFactory, max_batch, numerical_factory
 from .record import Record, RecordBuffer
 from .reference import reference_solution
 from .safety import USER, SafetyMonitor
@@ -121,8 +121,7 @@ class _Group:
         self.scenes, self.base = scenes, base
         self.K, self.N, self.dt, self.nd = len(scenes), base.n_steps, base.dt, len(base.dofs)
         self.test_ids = list(test_ids) if test_ids is not None else list(range(self.K))
-        self.num = numerical(scenes) if numerical is not None else \
-            LinearSubstructure.from_scenes(scenes)
+        self.num = (numerical or numerical_factory(base))(scenes)
         self.transfer: TransferSystem = build_transfer(base, self.K, nthread=nthread,
                                                        specimen=specimen, scenes=scenes)
         self.monitor = SafetyMonitor(scenes)
@@ -272,7 +271,14 @@ class _Group:
             if num_c is not None:
                 new = pre_step(num_c, f, n, num.z, num.zdot, num.x, mon_c)
             else:
-                num.step(n, f)
+                try:
+                    num.step(n, f)
+                except NumericalFailure as exc:  # the test stops here, its record kept
+                    mon.stop(exc.test, exc.reason, n)
+                    self._halt(n)
+                    if not mon.any_active:
+                        return n - n0
+                    continue
                 new = mon.command(n, num.z, num.zdot, num.x)
             if new:
                 self._halt(n)
@@ -314,12 +320,18 @@ class _Group:
             rows = N + 1 if mon.any_active else int(mon.row.max()) + 1
             rscenes = self.scenes if rows == N + 1 else \
                 [replace(s, duration=(rows - 1) * self.dt) for s in self.scenes]
-            ref = reference_solution(rscenes, nthread=nthread, progress=progress,
-                                     specimen=_reference_model(self.transfer),
-                                     numerical=numerical)
             zr, xr = self.ci[f"z_ref.{self.base.dofs[0]}"], self.ci["x_ref.0"]
-            self.data[:rows, :, zr:zr + self.nd] = ref["z_ref"].transpose(1, 0, 2)
-            self.data[:rows, :, xr:xr + self.num.n] = ref["x_ref"].transpose(1, 0, 2)
+            try:
+                ref = reference_solution(rscenes, nthread=nthread, progress=progress,
+                                         specimen=_reference_model(self.transfer),
+                                         numerical=numerical)
+                self.data[:rows, :, zr:zr + self.nd] = ref["z_ref"].transpose(1, 0, 2)
+                self.data[:rows, :, xr:xr + self.num.n] = ref["x_ref"].transpose(1, 0, 2)
+            except NumericalFailure as exc:  # no reference: NaN, and the record says why
+                self.data[:rows, :, zr:zr + self.nd] = np.nan
+                self.data[:rows, :, xr:xr + self.num.n] = np.nan
+                for b in buffers:
+                    b.meta["reference"] = f"failed: {exc.reason}"
         out = []
         for k in range(K):
             b = buffers[k]
@@ -416,6 +428,8 @@ def run_batch(scene: Scene, param_sets: Sequence[Mapping[str, Any]], transfer: s
     groups: dict[tuple, list[int]] = {}
     for i, s in enumerate(scenes):
         groups.setdefault(batch_key(s), []).append(i)
+    # a numerical substructure may bound its group (OpenSees: one domain, one test)
+    max_k = min(max_k, max_batch(scene) or max_k)
     results: list[RunResult | None] = [None] * len(scenes)
     models = [""] * len(scenes)
     threads = nthread if nthread > 0 else min(2, os.cpu_count() or 1)
@@ -495,13 +509,21 @@ def _fill_references(scenes: list[Scene], results: list, models: list[str], *, m
     groups: dict[tuple, list[int]] = {}
     for i, s in enumerate(scenes):
         key = (s.dt, s.duration, s.dofs, s.experiment.kind, s.experiment.substeps, models[i],
-               len(s.numerical.M), np.array(s.numerical.gamma).tobytes())
+               len(s.numerical.M), np.array(s.numerical.gamma).tobytes(), s.numerical.kind)
         groups.setdefault(key, []).append(i)
     for key, idx in groups.items():
         for start in range(0, len(idx), max_k):
             part = idx[start:start + max_k]
-            ref = reference_solution([scenes[i] for i in part], nthread=nthread,
-                                     specimen=key[5], progress=progress)
+            try:
+                ref = reference_solution([scenes[i] for i in part], nthread=nthread,
+                                         specimen=key[5], progress=progress)
+            except NumericalFailure as exc:  # no reference for these tests (NaN)
+                for i in part:
+                    results[i].record.meta["reference"] = f"failed: {exc.reason}"
+                    for c, col in results[i].record.columns.items():
+                        if c.startswith(("z_ref.", "x_ref.")):
+                            col[:] = np.nan
+                continue
             for k, i in enumerate(part):
                 rec = results[i].record
                 n = len(rec.t)

@@ -44,13 +44,15 @@ def record_meta(scene: Scene, num: NumericalSubstructure, k: int,
     (:func:`record_metas`)."""
     part = make_part(scene.experiment) if part is None else part
     k_exp, m_exp = part.interface_matrices()
-    M, K = num.M[k], num.Kmat[k]
+    # a substructure that is not linear M, C, K (an OpenSees model) gives its linear model
+    linearised = getattr(num, "linearised", None)
+    M, C, K, G = linearised(k) if linearised is not None else \
+        (num.M[k], num.C[k], num.Kmat[k], num.gamma)
     # delay margin of the delayed interface loop with the part as it is built (a mass behind
     # its spring, contact open); recorded only when a delay can destabilise the test
     if margin is None:
         try:
-            margin = interface_delay_margin(M, num.C[k], K, num.gamma, m_exp,
-                                            part.damping_matrix(), k_exp)
+            margin = interface_delay_margin(M, C, K, G, m_exp, part.damping_matrix(), k_exp)
         except (ValueError, np.linalg.LinAlgError):
             margin = (math.inf, math.nan, math.nan)
     tau_cr, wc, pm = (float(x) for x in margin)
@@ -61,7 +63,7 @@ def record_meta(scene: Scene, num: NumericalSubstructure, k: int,
         "dt": scene.dt, "dofs": list(scene.dofs), "versions": dict(_versions()),
         "numerical": num.meta(k), "experiment": part.meta(),
         "omega_num_max": fastest_eigenfrequency(M, K),
-        "omega_dyn_max": coupled_fastest_eigenfrequency(M, K, num.gamma, m_exp, k_exp),
+        "omega_dyn_max": coupled_fastest_eigenfrequency(M, K, G, m_exp, k_exp),
         "transfer_meta": transfer_meta, **extra, "status": "ok", "reason": "",
         # the whole scene, effects included: the record knows its bench (rths3d diagnose)
         "scene_def": scene_to_dict(scene),

@@ -29,7 +29,7 @@ import numpy as np
 
 from .config import Scene
 from .experiment import build_part_model
-from .numerical import LinearSubstructure, NumericalFactory
+from .numerical import LinearSubstructure, NumericalFactory, numerical_factory
 
 REFERENCE_SUBSTEPS = 2
 """RK4 substeps per interface step of the numpy specimen in the reference."""
@@ -56,6 +56,8 @@ def reference_solution(scenes: list[Scene], *, tol: float | None = None, max_ite
     base = scenes[0]
     N = base.n_steps
     # a plugged-in substructure must integrate implicitly in F_{n+1} when given f_next
+    if numerical is None and base.numerical.kind != "linear":
+        numerical = numerical_factory(base)  # the scene's kind (e.g. an OpenSees model)
     num = numerical(scenes) if numerical is not None else \
         LinearSubstructure.from_scenes(scenes, method="exact")
     spec = build_part_model([s.experiment for s in scenes], base.dofs, base.dt,

@@ -28,6 +28,7 @@ from .config import (
     COMP_INIT,
     COMPENSATE,
     EXPERIMENT_EXTRA,
+    NUMERICAL_EXTRA,
     EffectConfig,
     ExcitationConfig,
     ExperimentConfig,
@@ -41,6 +42,7 @@ from .config import (
 )
 from .errors import ConfigError
 from .experiment import part_class, part_kinds
+from .numerical import numerical_class
 from .record import DOFS
 from .scene_bench import (
     controller_dict,
@@ -74,7 +76,7 @@ __all__ = [
 
 EXCITATION_KINDS = ("none", "force", "support", "ground")
 SIGNALS = ("sine", "raised_cosine", "file", "array")
-INTEGRATORS = ("exact", "central_difference")
+INTEGRATORS = ("exact", "central_difference", "newmark")
 SENSOR_KINDS = ("ideal", "first_order")
 
 def _num(field_name: str, value: Any, *, lo: float | None = None, lo_open: bool = False,
@@ -134,9 +136,16 @@ def _section(raw: Mapping[str, Any], name: str, cls: type, *, required: bool = F
     return dict(sec)
 
 
-def _numerical(raw: Mapping[str, Any], n_if: int, dofs: tuple[str, ...]) -> NumericalConfig:
+def _numerical(raw: Mapping[str, Any], n_if: int, dofs: tuple[str, ...],
+               source: str = "") -> NumericalConfig:
+    kind = raw.get("numerical", {}).get("kind", "linear") if isinstance(
+        raw.get("numerical"), Mapping) else "linear"
+    if kind != "linear":  # a registered kind validates its own table
+        return numerical_class(kind).config(raw["numerical"], dofs, source)
     sec = _section(raw, "numerical", NumericalConfig, required=True,
                    rename={"m": "M", "c": "C", "k": "K"})
+    for key in set(sec) & set(NUMERICAL_EXTRA[1:]):
+        raise ConfigError(f"numerical.{key}", sec[key], "only for another numerical.kind")
     mats = {}
     for big, small in (("M", "m"), ("C", "c"), ("K", "k")):
         if big in sec and small in sec:
@@ -257,7 +266,7 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
     if abs(steps - round(steps)) > 1e-9 * steps:
         raise ConfigError("duration", raw.get("duration", 10.0),
                           f"must be a multiple of dt = {dt:g} s")
-    num = _numerical(raw, len(dofs), dofs)
+    num = _numerical(raw, len(dofs), dofs, source)
     exp_sec = _section(raw, "experiment", ExperimentConfig, required=True)
     if "kind" not in exp_sec:
         raise ConfigError("experiment.kind", None,
@@ -561,7 +570,9 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
     out: dict[str, Any] = {"name": scene.name, "dofs": list(scene.dofs), "dt": scene.dt,
                            "duration": scene.duration}
     nm = scene.numerical
-    if nm.n == 1:
+    if nm.kind != "linear":
+        out["numerical"] = numerical_class(nm.kind).section(nm)
+    elif nm.n == 1:
         out["numerical"] = {"m": nm.M[0][0], "c": nm.C[0][0], "k": nm.K[0][0],
                             "gamma": [list(r) for r in nm.gamma],
                             "integrator": nm.integrator}

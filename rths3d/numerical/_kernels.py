@@ -45,8 +45,8 @@ def linear_step(Ad, Bf, P, n, f, s, s_next, Czx, Czv, Cx, z, zd, x):
 
 @njit
 def load_terms_1dof(p, A, B, P):
-    """The load terms P (N, K, 2) of one-DOF substructures: P[n, k] = A p_n + B p_{n+1} for
-    the loads p (K, N+1) and the per-test (or shared, first axis 1) columns A, B (·, 2) (B
+    """The load terms P (N, K, S) of one-DOF substructures: P[n, k] = A p_n + B p_{n+1} for
+    the loads p (K, N+1) and the per-test (or shared, first axis 1) columns A, B (·, S) (B
     all zero: the held-load integrator). Blocks of steps, so that the loads (read along
     time) and P (written across tests) stay in cache."""
     K, N1 = p.shape
@@ -57,5 +57,5 @@ def load_terms_1dof(p, A, B, P):
         for k in range(K):
             kk = 0 if shared else k
             for n in range(n0, n1):
-                for s in range(2):
+                for s in range(A.shape[1]):
                     P[n, k, s] = p[k, n] * A[kk, s] + p[k, n + 1] * B[kk, s]

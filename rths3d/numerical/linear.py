@@ -11,6 +11,8 @@ p) and the interface force is held (zero-order hold) in the partitioned loop, or
 interpolated in the reference. Unconditionally stable, no numerical damping.
 ``central_difference``: s = [x_n; x_{n−1}], explicit, stable for ω_max ΔT < 2 (checked here,
 and by the scene with the experimental part's spring added).
+``newmark``: s = [x; ẋ; ẍ], Newmark's average acceleration with the load at t_{n+1} (the
+step of an OpenSees model, :mod:`rths3d.numerical.opensees`, written out for M, C, K).
 """
 
 from __future__ import annotations
@@ -74,7 +76,36 @@ def discretise(M: np.ndarray, C: np.ndarray, K: np.ndarray, dt: float,
         G1 = np.vstack([L, zero])
         return Discretisation(Ad, G1, np.zeros_like(G1), np.hstack([eye, zero]),
                               np.hstack([eye / dt, -eye / dt]), s0_from_a0=True)
-    raise ConfigError("numerical.integrator", method, "must be 'exact' or 'central_difference'")
+    if method == "newmark":
+        return _newmark(M, C, K, dt)
+    raise ConfigError("numerical.integrator", method,
+                      "must be 'exact', 'central_difference' or 'newmark'")
+
+
+def _newmark(M: np.ndarray, C: np.ndarray, K: np.ndarray, dt: float, gamma: float = 0.5,
+             beta: float = 0.25) -> Discretisation:
+    """Newmark's average acceleration (γ ½, β ¼) on s = [x; ẋ; ẍ] with the load at t_{n+1}:
+    s_{n+1} = A s_n + B u_{n+1} (G_1 = G_2 = B: the held interface force F'_m(t_n) acts at
+    t_{n+1}, as in an OpenSees ``analyze`` step with the force imposed before it)."""
+    n = M.shape[0]
+    eye, zero = np.eye(n), np.zeros((n, n))
+    a0, a1 = 1.0 / (beta * dt**2), gamma / (beta * dt)
+    Kh_inv = np.linalg.inv(K + a1 * C + a0 * M)
+    # x_{n+1} = K̂⁻¹ (u_{n+1} + M (a0 x + v/(βΔt) + (1/(2β) − 1) a)
+    #                 + C (a1 x + (γ/β − 1) v + Δt (γ/(2β) − 1) a))
+    X = Kh_inv @ np.hstack([a0 * M + a1 * C, M / (beta * dt) + (gamma / beta - 1) * C,
+                            (0.5 / beta - 1) * M + dt * (0.5 * gamma / beta - 1) * C])
+    Bx = Kh_inv
+    # a_{n+1} = a0 (x_{n+1} − x_n) − v_n/(βΔt) − (1/(2β) − 1) a_n
+    A_acc = a0 * X - np.hstack([a0 * eye, eye / (beta * dt), (0.5 / beta - 1) * eye])
+    B_acc = a0 * Bx
+    # v_{n+1} = v_n + Δt ((1 − γ) a_n + γ a_{n+1})
+    A_vel = np.hstack([zero, eye, (1 - gamma) * dt * eye]) + gamma * dt * A_acc
+    B_vel = gamma * dt * B_acc
+    Ad = np.vstack([X, A_vel, A_acc])
+    B = np.vstack([Bx, B_vel, B_acc])
+    return Discretisation(Ad, B, B.copy(), np.hstack([eye, zero, zero]),
+                          np.hstack([zero, eye, zero]))
 
 
 def _exact_batch(M: np.ndarray, C: np.ndarray, K: np.ndarray, dt: float
@@ -208,10 +239,11 @@ class LinearSubstructure:
         # DOF in one compiled pass (tiny batched matmuls cost far more); for several, the
         # batched matmuls of before, whose rounding the multi-DOF records keep.
         A = self.G1 if method == "central_difference" else self.G1 - self.G2
+        S = self.Ad.shape[-1]
         if self.n == 1:
             B = np.zeros_like(A[:, :, 0]) if method == "central_difference" else \
                 self.G2[:, :, 0]
-            self.P = np.empty((p.shape[1] - 1, self.K_tests, 2))
+            self.P = np.empty((p.shape[1] - 1, self.K_tests, S))
             load_terms_1dof(np.ascontiguousarray(np.broadcast_to(p[:, :, 0], (
                 self.K_tests, p.shape[1]))), np.ascontiguousarray(A[:, :, 0]),
                 np.ascontiguousarray(B), self.P)
@@ -223,7 +255,7 @@ class LinearSubstructure:
         self.p = p
         self.Czx = G.T @ self.Cx          # (n_if, S)
         self.Czv = G.T @ self.Cv
-        self.s = np.zeros((self.K_tests, 2 * self.n))
+        self.s = np.zeros((self.K_tests, S))
         self.z = np.zeros((self.K_tests, self.n_if))
         self.zdot = np.zeros((self.K_tests, self.n_if))
         self.x = np.zeros((self.K_tests, self.n))

@@ -192,7 +192,7 @@ def batch_key(settings: Mapping[str, Any] | Scene) -> tuple:
     kind = s.get("transfer.kind", "ideal")
     gamma = s.get("numerical.gamma", ())
     return (kind, setting(s, "dt", 1e-3), setting(s, "duration", 10.0),
-            s.get("numerical.integrator", "exact"),
+            s.get("numerical.integrator", "exact"), s.get("numerical.kind", "linear"),
             np.asarray(gamma, dtype=float).tobytes() if len(gamma) else b"",
             transfer_class(kind).batch_key(s))
 
