@@ -72,6 +72,8 @@ class NumericalConfig:
     ground_dof: int = 1
     tol: float = 1e-12
     max_iter: int = 25
+    elements: tuple[int, ...] = ()
+    reference: str = "iterate"
 
     @property
     def n(self) -> int:
@@ -80,7 +82,7 @@ class NumericalConfig:
 
 
 NUMERICAL_EXTRA = ("kind", "model", "interface", "integrator_args", "algorithm", "loads",
-                   "ground_dof", "tol", "max_iter")
+                   "ground_dof", "tol", "max_iter", "elements", "reference")
 """Fields of :class:`NumericalConfig` that only another ``kind`` than ``linear`` uses (not in
 a linear scene's parameters)."""
 

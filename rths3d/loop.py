@@ -126,6 +126,9 @@ class _Group:
                                                        specimen=specimen, scenes=scenes)
         self.monitor = SafetyMonitor(scenes)
         self.fidelity = FidelityMonitor(scenes, self.num)
+        # record signals: the transfer system's, then the numerical substructure's own
+        # (an OpenSees model's element forces and deformations)
+        self.signals = tuple(self.transfer.signals) + tuple(getattr(self.num, "signals", ()))
         self._layout()
 
     def _layout(self) -> None:
@@ -135,7 +138,7 @@ class _Group:
         for sig in ("z_cmd", "z_meas", "f_meas"):
             cols += [f"{sig}.{d}" for d in dofs]
         cols += [f"x_num.{i}" for i in range(num.n)]
-        for sig in self.transfer.signals:
+        for sig in self.signals:
             cols += sig.columns
         cols += [f"f_ext.{d}" for d in dofs] + [f"p_num.{i}" for i in range(num.n)]
         cols += self.fidelity.columns()
@@ -157,7 +160,7 @@ class _Group:
         self.data = data
         # the transfer system's extra signals: copies per step, converted when flushed
         self.hist = []
-        for sig in self.transfer.signals:
+        for sig in self.signals:
             h = np.zeros((self.N + 1,) + sig.source.shape)
             if sig.initial is not None:
                 h[:] = sig.initial
@@ -177,7 +180,7 @@ class _Group:
     def flush(self, upto: int) -> None:
         """Write the transfer system's signals of rows flushed … upto−1 into the records."""
         a = self.flushed
-        for sig, h in zip(self.transfer.signals, self.hist, strict=True):
+        for sig, h in zip(self.signals, self.hist, strict=True):
             c = self.ci[sig.columns[0]]
             block = h[a:upto] if sig.convert is None else sig.convert(h[a:upto])
             self.data[a:upto, :, c:c + len(sig.labels)] = block
@@ -266,7 +269,7 @@ class _Group:
         num_c = num.compiled()  # a linear substructure: its step and the checks in one call
         mon_c = self._monitor_arrays()
         rec = (self.data, self.c_zc, self.c_zm, self.c_f, self.c_x)
-        sigs = list(zip(tr.signals, self.hist, strict=True))
+        sigs = list(zip(self.signals, self.hist, strict=True))
         for n in range(n0, n1):
             if num_c is not None:
                 new = pre_step(num_c, f, n, num.z, num.zdot, num.x, mon_c)

@@ -40,6 +40,7 @@ import numpy as np
 
 from ..config import NumericalConfig
 from ..errors import ConfigError, NumericalFailure
+from ..transfer.base import RecordSignal
 from .excitation import excitation_signal
 
 if TYPE_CHECKING:
@@ -53,7 +54,11 @@ ALGORITHMS = ("Linear", "LinearFactorOnce", "Newton", "ModifiedNewton", "KrylovN
 """Solution algorithms (``numerical.algorithm``); ``LinearFactorOnce``: ``Linear
 -factorOnce`` (linear models: the cheapest step)."""
 KEYS = ("kind", "model", "interface", "integrator", "integrator_args", "algorithm", "loads",
-        "ground_dof", "tol", "max_iter")
+        "ground_dof", "tol", "max_iter", "elements", "reference")
+REFERENCES = ("iterate", "predict")
+"""How the reference couples the model (``numerical.reference``): ``iterate`` (rolled back
+to each step's start for every interface pass: exact for elastic models) or ``predict``
+(one committed step per interface step: models whose materials keep a history)."""
 _TAG = 970000
 """First tag of the time series, patterns and parameters rths3d adds to the user's model."""
 
@@ -143,13 +148,22 @@ def opensees_config(sec: Mapping[str, Any], dofs: Sequence[str], source: str) ->
     it = sec.get("max_iter", 25)
     if isinstance(it, bool) or not isinstance(it, int) or not 1 <= it <= 1000:
         raise ConfigError("numerical.max_iter", it, "must be an integer in 1…1000")
+    elements = sec.get("elements", [])
+    if not isinstance(elements, list | tuple) or not all(
+            isinstance(e, int) and not isinstance(e, bool) and e >= 1 for e in elements):
+        raise ConfigError("numerical.elements", elements, "must be a list of element tags "
+                          "(integers >= 1) whose force and deformation the record keeps")
+    ref = sec.get("reference", "iterate")
+    if ref not in REFERENCES:
+        raise ConfigError("numerical.reference", ref, f"must be one of {', '.join(REFERENCES)}")
     n = len(dofs)
     eye = tuple(tuple(1.0 if i == j else 0.0 for j in range(n)) for i in range(n))
     zero = tuple((0.0,) * n for _ in range(n))
     return NumericalConfig(M=eye, C=zero, K=zero, gamma=eye, integrator=integ, kind="opensees",
                            model=str(path), interface=interface,  # type: ignore[arg-type]
                            integrator_args=tuple(float(a) for a in args), algorithm=algo,
-                           loads=loads, ground_dof=gdof, tol=float(tol), max_iter=it)
+                           loads=loads, ground_dof=gdof, tol=float(tol), max_iter=it,
+                           elements=tuple(elements), reference=ref)
 
 
 def opensees_section(nm: NumericalConfig) -> dict[str, Any]:
@@ -158,7 +172,8 @@ def opensees_section(nm: NumericalConfig) -> dict[str, Any]:
     return {"kind": "opensees", "model": nm.model, "interface": [list(p) for p in nm.interface],
             "integrator": nm.integrator, "integrator_args": list(nm.integrator_args),
             "algorithm": nm.algorithm, "loads": [list(p) for p in nm.loads],
-            "ground_dof": nm.ground_dof, "tol": nm.tol, "max_iter": nm.max_iter}
+            "ground_dof": nm.ground_dof, "tol": nm.tol, "max_iter": nm.max_iter,
+            "elements": list(nm.elements), "reference": nm.reference}
 
 
 class OpenSeesSubstructure:
@@ -178,6 +193,8 @@ class OpenSeesSubstructure:
         self.dt = float(scene.dt)
         self.n_if = self.n = len(scene.dofs)
         self.gamma = np.eye(self.n_if)
+        self.rolls_back = nm.reference == "iterate"
+        """Whether the reference may roll the model back (see :data:`REFERENCES`)."""
         self.method = f"opensees {nm.integrator} {' '.join(f'{a:g}' for a in nm.integrator_args)}"
         self.z = np.zeros((1, self.n_if))
         self.zdot = np.zeros((1, self.n_if))
@@ -194,6 +211,14 @@ class OpenSeesSubstructure:
                         self.p[0, :, i] += factor * self._signal
         self._log = ""
         self.ops = _ops()
+        # the record's signals ele_force.<tag> (N or N·m) and ele_deformation.<tag> (m or
+        # rad): each listed element's first basic force and deformation (a zeroLength
+        # storey: its shear and drift)
+        labels = tuple(str(e) for e in nm.elements)
+        self._ele = np.zeros((1, len(labels)))
+        self._eld = np.zeros((1, len(labels)))
+        self.signals = (RecordSignal("ele_force", labels, self._ele),
+                        RecordSignal("ele_deformation", labels, self._eld)) if labels else ()
         self._build()
 
     @classmethod
@@ -265,6 +290,11 @@ class OpenSeesSubstructure:
                         dof in ops.getFixedDOFs(node):
                     raise ConfigError(f"numerical.{field}[{i}]", list(entry),
                                       "is fixed: an interface DOF must be free")
+        tags = set(ops.getEleTags())
+        for i, e in enumerate(nm.elements):
+            if e not in tags:
+                raise ConfigError(f"numerical.elements[{i}]", e, f"element {e} does not exist "
+                                  f"in {Path(nm.model).name} ({len(tags)} elements)")
         self.nodes = sorted(nodes)
         self.ndf = {n: len(ops.nodeDisp(n)) for n in self.nodes}
         self._linearise()
@@ -311,6 +341,19 @@ class OpenSeesSubstructure:
         T = -np.linalg.solve(K[np.ix_(b, b)], K[np.ix_(b, a)])
         red = lambda A: A[np.ix_(a, a)] + A[np.ix_(a, b)] @ T  # noqa: E731
         return M[np.ix_(a, a)], red(C), red(K), G[a]
+
+    def step_flexibility(self) -> np.ndarray:
+        """Φ = ∂z_{n+1}/∂F'_m (n_if × n_if, m/N) of one step of the model at rest: −Γᵀ K̂⁻¹ Γ,
+        K̂ = K + γ/(βΔt) C + M/(βΔt²) (Newmark's effective stiffness; the other integrators
+        with γ ½, β ¼)."""
+        g, b = (self.cfg.integrator_args[:2] if self.cfg.integrator == "Newmark"
+                else (0.5, 0.25))
+        dt = self.dt
+        Kh = self._K + g / (b * dt) * self._C + self._M / (b * dt**2)
+        G = np.zeros((Kh.shape[0], self.n_if))
+        for i, e in enumerate(self.eqs):
+            G[e, i] = 1.0
+        return -G.T @ np.linalg.solve(Kh, G)
 
     def _analysis(self) -> None:
         ops, nm = self.ops, self.cfg
@@ -360,7 +403,9 @@ class OpenSeesSubstructure:
         # per step: bound functions and plain tuples, nothing looked up by name
         self._analyze, self._update = ops.analyze, ops.updateParameter
         self._disp, self._vel = ops.nodeDisp, ops.nodeVel
+        self._bforce, self._bdef = ops.basicForce, ops.basicDeformation
         self._iface = tuple((int(node), int(dof)) for node, dof in nm.interface)
+        self._elements = tuple(int(e) for e in nm.elements)
         self._halted = False
 
     # ------------------------------------------------------------------ protocol
@@ -392,6 +437,9 @@ class OpenSeesSubstructure:
             z[0, i] = disp(node, dof)
             zd[0, i] = vel(node, dof)
         self.x[0] = z[0]
+        for i, e in enumerate(self._elements):
+            self._ele[0, i] = self._bforce(e)[0]
+            self._eld[0, i] = self._bdef(e)[0]
 
     def get_state(self) -> np.ndarray:
         """Every node's displacement, velocity and acceleration and the time."""
