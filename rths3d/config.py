@@ -73,7 +73,7 @@ class NumericalConfig:
     tol: float = 1e-12
     max_iter: int = 25
     elements: tuple[int, ...] = ()
-    reference: str = "iterate"
+    reference: str = "predict"
 
     @property
     def n(self) -> int:

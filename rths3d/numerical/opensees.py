@@ -21,7 +21,9 @@ convergence) raises :class:`~rths3d.errors.NumericalFailure`: the loop stops the
 safely and keeps its record. ``get_state``/``set_state`` (the reference's rollback) restore
 every node's displacement, velocity and acceleration and the time and rebuild the analysis
 (``domainChange``): exact for models whose state is their nodes' (elastic elements); for
-path-dependent materials a rolled-back pass has been committed (see docs/opensees.md).
+path-dependent materials a rolled-back pass has been committed, so their reference
+(``numerical.reference = "predict"``, the default) takes one committed step per interface
+step instead (:func:`rths3d.reference.couple_predicted`; docs/opensees.md).
 """
 
 from __future__ import annotations
@@ -55,10 +57,12 @@ ALGORITHMS = ("Linear", "LinearFactorOnce", "Newton", "ModifiedNewton", "KrylovN
 -factorOnce`` (linear models: the cheapest step)."""
 KEYS = ("kind", "model", "interface", "integrator", "integrator_args", "algorithm", "loads",
         "ground_dof", "tol", "max_iter", "elements", "reference")
-REFERENCES = ("iterate", "predict")
-"""How the reference couples the model (``numerical.reference``): ``iterate`` (rolled back
-to each step's start for every interface pass: exact for elastic models) or ``predict``
-(one committed step per interface step: models whose materials keep a history)."""
+REFERENCES = ("predict", "iterate")
+"""How the reference couples the model (``numerical.reference``): ``predict`` (default: one
+committed step per interface step, the part iterated against the step's interface
+flexibility; right for any model, materials with a history included) or ``iterate`` (the
+model rolled back to the step's start for every interface pass through its nodes' state:
+exact for elastic models only — a yielding material's history is not rolled back)."""
 _TAG = 970000
 """First tag of the time series, patterns and parameters rths3d adds to the user's model."""
 
@@ -153,7 +157,7 @@ def opensees_config(sec: Mapping[str, Any], dofs: Sequence[str], source: str) ->
             isinstance(e, int) and not isinstance(e, bool) and e >= 1 for e in elements):
         raise ConfigError("numerical.elements", elements, "must be a list of element tags "
                           "(integers >= 1) whose force and deformation the record keeps")
-    ref = sec.get("reference", "iterate")
+    ref = sec.get("reference", "predict")
     if ref not in REFERENCES:
         raise ConfigError("numerical.reference", ref, f"must be one of {', '.join(REFERENCES)}")
     n = len(dofs)
