@@ -18,12 +18,18 @@ RECORD_SUFFIXES = (".parquet", ".csv")
 
 
 def _plot(record, path: Path) -> Path:
-    """z, z', z^r over time and the synchronisation subspace plot (z' against z)."""
+    """z, z', z^r over time and the synchronisation subspace plot (z' against z); with an
+    OpenSees model's element signals, a row more: the interface loop (F'_m against z') and
+    the elements' hysteresis loops (force against deformation)."""
     import numpy as np
 
     dofs = record.dofs
-    fig = new_figure((11, 3.6 * len(dofs)))
-    axes = fig.subplots(len(dofs), 2, squeeze=False, gridspec_kw={"width_ratios": [2.2, 1]})
+    elements = [c.split(".", 1)[1] for c in record.columns if c.startswith("ele_force.")]
+    rows = len(dofs) + bool(elements)
+    fig = new_figure((11, 3.6 * rows))
+    axes = fig.subplots(rows, 2, squeeze=False, gridspec_kw={"width_ratios": [2.2, 1]})
+    if elements:
+        _loops(record, dofs, elements, axes[-1])
     t = record.t
     for i, d in enumerate(dofs):
         unit, scale = ("mrad", 1e3) if d.startswith("r") else ("mm", 1e3)
@@ -60,6 +66,29 @@ def _plot(record, path: Path) -> Path:
     fig.suptitle(f"{meta.get('scene', '')} — transfer: {meta.get('transfer', '')} — "
                  f"{meta.get('status', '')} {meta.get('reason', '')}"[:140], fontsize=10)
     return save_figure(fig, path)
+
+
+def _loops(record, dofs, elements, axes) -> None:
+    """The interface force-displacement loop and the elements' hysteresis loops."""
+    ax = axes[0]
+    for d in dofs:
+        unit = "mrad" if d.startswith("r") else "mm"
+        ax.plot(record.columns[f"z_meas.{d}"] * 1e3, record.columns[f"f_meas.{d}"], lw=0.8,
+                label=f"{d}: F'_m against z' ({unit})")
+    ax.set_xlabel("z' (mm, mrad)")
+    ax.set_ylabel("F'_m (N, N·m)")
+    ax.set_title("interface loop")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    ax = axes[1]
+    for e in elements:
+        ax.plot(record.columns[f"ele_deformation.{e}"] * 1e3, record.columns[f"ele_force.{e}"],
+                lw=0.8, label=f"element {e}")
+    ax.set_xlabel("deformation (mm, mrad)")
+    ax.set_ylabel("force (N, N·m)")
+    ax.set_title("numerical model: hysteresis")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
 
 
 @contextlib.contextmanager
