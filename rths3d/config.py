@@ -80,6 +80,12 @@ class NumericalConfig:
         """Number of numerical DOFs."""
         return len(self.M)
 
+    @property
+    def has_matrices(self) -> bool:
+        """Whether M, C, K are the substructure itself (no ``model`` file): its m, c, k may
+        be overridden and shown as parameters; an OpenSees model's live in its file."""
+        return not self.model
+
 
 NUMERICAL_EXTRA = ("kind", "model", "interface", "integrator_args", "algorithm", "loads",
                    "ground_dof", "tol", "max_iter", "elements", "reference")

@@ -295,3 +295,19 @@ def test_scene_keys_are_checked():
     lin["numerical"]["interface"] = [[2, 1]]
     with pytest.raises(ConfigError, match="numerical.interface"):
         scene_from_dict(lin)
+
+
+def test_numerical_scalars_are_not_an_opensees_models_parameters():
+    """m, c, k of a one-DOF OpenSees scene are its model file's: an override of them is
+    refused (one ConfigError naming the field), and the viewer offers no slider for them."""
+    from rths3d.scene import scene_with
+    from rths3d.viz.live import LiveRun
+
+    sc = load_scene(LINEAR)
+    assert not sc.numerical.has_matrices
+    assert load_scene(ROOT / "scenes" / "paper_linear.toml").numerical.has_matrices
+    with pytest.raises(ConfigError) as info:
+        scene_with(sc, {"numerical.k": 5e3})
+    assert info.value.field == "numerical.k"
+    params = LiveRun(sc, transfer="ideal").key_params()
+    assert params and not any(name.startswith("numerical.") for name in params)

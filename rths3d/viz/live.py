@@ -257,6 +257,8 @@ class LiveRun:
         out: dict[str, tuple[float, float, float, float]] = {}
         for name, (lo, hi, step) in KEY_PARAMS.items():
             v: Any = p.get(name)
+            if name.startswith("numerical.") and not self.scene.numerical.has_matrices:
+                continue  # an OpenSees model's parameters live in its file
             if v is None and name.startswith("numerical.") and self.scene.numerical.n == 1:
                 v = p.get(name.upper().replace("NUMERICAL.", "numerical."))
                 v = v[0][0] if isinstance(v, tuple) else v
