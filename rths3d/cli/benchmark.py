@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import sys
+from pathlib import Path
 from typing import Any
 
 import typer
@@ -407,6 +408,10 @@ def marths(
     data: str = typer.Option("", "--data", help="maRTHS benchmark folder holding data/."),
     plot: str = typer.Option("", "--plot", help="Save a PNG of the (first) nominal run: "
                              "tracking in x and θ, storey drifts against the reference."),
+    opensees: str = typer.Option(
+        "", "--opensees", help="The numerical substructure from an OpenSees model file "
+        "(build(ops); node e = SAP2000 equation e), e.g. scenes/opensees/marths_frame.py; "
+        "nominal plant only."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
     """Run the multi-axial RTHS benchmark (Condori Uribe et al. 2023) and print J1–J10.
@@ -427,6 +432,12 @@ def marths(
         raise ConfigError("--t-end", t_end, "must be > 0 s")
     if initial not in ("stored", "calibrated"):
         raise ConfigError("--initial", initial, "must be stored or calibrated")
+    if opensees:
+        if trials:
+            raise ConfigError("--trials", trials, "must be 0 with --opensees (one OpenSees "
+                              "domain per process: the nominal plant only)")
+        if not Path(opensees).is_file():
+            raise ConfigError("--opensees", opensees, "file not found")
     from ..rthsbench.marths.data import RECORDS, record_name
 
     if record.lower() == "all":
@@ -462,16 +473,26 @@ def marths(
     from ..rthsbench.marths.summary import run_set
 
     first: list = []
-    with Progress(transient=True, disable=as_json or not sys.stderr.isatty()) as prog:
-        task = prog.add_task("maRTHS", total=len(records) * len(names))
-        res = run_set(names, records, intensity, trials, seed, initial, calibrate,
-                      comp_params, noise, t_end, data_path=data_path,
-                      keep=lambda _r, _n, r: first.append(r) if not first else None,
-                      progress=lambda _r, _n: prog.advance(task))
+    frame = None
+    if opensees:
+        from ..rthsbench.marths.opensees_frame import OpenSeesFrame
+
+        frame = OpenSeesFrame(opensees, 1.0 / 1024.0)
+    try:
+        with Progress(transient=True, disable=as_json or not sys.stderr.isatty()) as prog:
+            task = prog.add_task("maRTHS", total=len(records) * len(names))
+            res = run_set(names, records, intensity, trials, seed, initial, calibrate,
+                          comp_params, noise, t_end, data_path=data_path,
+                          keep=lambda _r, _n, r: first.append(r) if not first else None,
+                          progress=lambda _r, _n: prog.advance(task), numerical=frame)
+    finally:
+        if frame is not None:
+            frame.close()
     out: dict[str, Any] = {
         "benchmark": "maRTHS (Condori Uribe et al. 2023), RoDeAC (Quiroz et al. 2024)",
         "intensity": intensity, "fs_Hz": 1024.0, "noise": noise, "trials": trials,
         "seed": seed, "initial": initial, "calibrated": calibrate, "t_end": t_end,
+        "opensees": str(Path(opensees).resolve()) if opensees else None,
         "units": {"J1": "ms", "J4": "ms", "J2-J3,J5-J10": "%"},
         "labels": {k: list(v) for k, v in J_LABELS.items()}, "records": res,
     }

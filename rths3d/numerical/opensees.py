@@ -67,18 +67,19 @@ _TAG = 970000
 """First tag of the time series, patterns and parameters rths3d adds to the user's model."""
 
 
-def _ops() -> Any:
+def opensees_module() -> Any:
+    """``openseespy.opensees`` (a ConfigError on one line when it cannot be imported)."""
     try:
         import openseespy.opensees as ops
     except ImportError as exc:  # the package, or the BLAS/LAPACK it loads
         raise ConfigError("numerical.kind", "opensees",
                           f"needs openseespy (pip install 'openseespy>=3.7.1,<3.9'): "
                           f"{exc}") from None
-    if not getattr(_ops, "quiet", False):
+    if not getattr(opensees_module, "quiet", False):
         # openseespy writes "Process 0 Terminating" to stderr when the process ends: keep a
         # command's error on one line
         atexit.register(_silence_stderr)
-        _ops.quiet = True  # type: ignore[attr-defined]
+        opensees_module.quiet = True  # type: ignore[attr-defined]
     return ops
 
 
@@ -180,6 +181,26 @@ def opensees_section(nm: NumericalConfig) -> dict[str, Any]:
             "elements": list(nm.elements), "reference": nm.reference}
 
 
+def load_build(path: str, field: str = "numerical.model") -> Any:
+    """The ``build(ops)`` function of the model file ``path`` (a ConfigError naming ``field``
+    on one line: not a Python file, a syntax error with its line, a failed import, no
+    ``build``)."""
+    spec = importlib.util.spec_from_file_location(f"_rths3d_opensees_{abs(hash(path))}", path)
+    if spec is None or spec.loader is None:
+        raise ConfigError(field, path, "not a Python file")
+    module = importlib.util.module_from_spec(spec)
+    try:
+        spec.loader.exec_module(module)
+    except SyntaxError as exc:
+        raise ConfigError(field, path, f"syntax error at line {exc.lineno}: {exc.msg}") from None
+    except Exception as exc:  # the user's module: anything it raises, on one line
+        raise ConfigError(field, path, f"failed to load: {type(exc).__name__}: {exc}") from None
+    build = getattr(module, "build", None)
+    if not callable(build):
+        raise ConfigError(field, path, "defines no function build(ops)")
+    return build
+
+
 class OpenSeesSubstructure:
     """One test's OpenSees model behind the :class:`~rths3d.numerical.NumericalSubstructure`
     protocol (see the module docstring). ``z``, ``zdot``, ``x`` (1, n_if): the interface
@@ -214,7 +235,7 @@ class OpenSeesSubstructure:
                     if (inode, idof) == (node, dof):
                         self.p[0, :, i] += factor * self._signal
         self._log = ""
-        self.ops = _ops()
+        self.ops = opensees_module()
         # the record's signals ele_force.<tag> (N or N·m) and ele_deformation.<tag> (m or
         # rad): each listed element's first basic force and deformation (a zeroLength
         # storey: its shear and drift)
@@ -246,24 +267,7 @@ class OpenSeesSubstructure:
         return f"; OpenSees: {lines[-1][:200]}" if lines else ""
 
     def _load_model(self) -> Any:
-        path = self.cfg.model
-        spec = importlib.util.spec_from_file_location(f"_rths3d_opensees_{abs(hash(path))}",
-                                                      path)
-        if spec is None or spec.loader is None:
-            raise ConfigError("numerical.model", path, "not a Python file")
-        module = importlib.util.module_from_spec(spec)
-        try:
-            spec.loader.exec_module(module)
-        except SyntaxError as exc:
-            raise ConfigError("numerical.model", path, f"syntax error at line {exc.lineno}: "
-                              f"{exc.msg}") from None
-        except Exception as exc:  # the user's module: anything it raises, on one line
-            raise ConfigError("numerical.model", path,
-                              f"failed to load: {type(exc).__name__}: {exc}") from None
-        build = getattr(module, "build", None)
-        if not callable(build):
-            raise ConfigError("numerical.model", path, "defines no function build(ops)")
-        return build
+        return load_build(self.cfg.model)
 
     def _build(self) -> None:
         ops, nm = self.ops, self.cfg

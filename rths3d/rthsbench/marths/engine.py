@@ -259,7 +259,8 @@ def run_marths(cfg: MarthsConfig | None = None, compensator: Any = "rodeac",
                params: Any = None, plants: Sequence[PlantZPK] | None = None,
                data_path: str | None = None, gm: GroundMotion | None = None,
                initial: str = "stored",
-               progress: Callable[[int, int], None] | None = None) -> list[MarthsResult]:
+               progress: Callable[[int, int], None] | None = None,
+               numerical: Any = None) -> list[MarthsResult]:
     """Run the benchmark for ``plants`` (default: the nominal plant) with ``compensator``.
 
     ``compensator``: a name of :data:`rths3d.compensation.COMPENSATORS` configured by
@@ -268,7 +269,12 @@ def run_marths(cfg: MarthsConfig | None = None, compensator: Any = "rodeac",
     object(s) already built for K plants at ``cfg.dt`` (one with 2 channels, or two with 1).
     ``rodeac`` without θ₀/P₀ starts from ``initial`` (:func:`default_config`). ``gm`` replaces the
     record (its scale becomes ``cfg.intensity``). Returns one :class:`MarthsResult` per plant.
-    ``progress(k, N)`` is called every 4096 steps.
+    ``progress(k, N)`` is called every 4096 steps. ``numerical``: the numerical substructure
+    stepped outside the compiled loop instead of the benchmark's Newmark step of K_N, C_N,
+    M_N — an :class:`~.opensees_frame.OpenSeesFrame` (its ``reset()``, ``step(ag, F)``
+    returning False when it fails, ``u`` at :data:`~.opensees_frame.OUTPUTS`, ``dt`` and
+    ``reason``); one plant then. A failed step stops the trial with the record up to the
+    sample before.
     """
     cfg = cfg or MarthsConfig()
     plant_list = list(plants) if plants is not None else [NOMINAL]
@@ -278,6 +284,14 @@ def run_marths(cfg: MarthsConfig | None = None, compensator: Any = "rodeac",
         else gm.scaled(cfg.intensity)
     part = structure(str(data_path) if data_path else None)
     K, dt = len(plant_list), cfg.dt
+    if numerical is not None:
+        if K != 1:
+            raise ConfigError("plants", K, "an outside numerical substructure (OpenSees: one "
+                              "domain per process) steps one plant per run")
+        if abs(numerical.dt - dt) > 1e-12 * dt:
+            raise ConfigError("numerical.dt", numerical.dt, f"must equal the benchmark's "
+                              f"1/fs = {dt:g} s")
+        numerical.reset()
     N, t = _grid(cfg, gm)
     ag = np.ascontiguousarray(gm(t))
     ref = reference_signals(part, ag, dt)
@@ -315,11 +329,24 @@ def run_marths(cfg: MarthsConfig | None = None, compensator: Any = "rodeac",
     comp_stop = np.zeros(K, dtype=bool)
     inv_dt = 1.0 / dt
     n_alive = K
+    Fi = np.zeros(3)
+    failed = ""
     for k in range(N):
-        n_alive -= kernels.measure(k, alive, stop_at, stop_val, Xp, Cp, U, V, A, R, Fv,
-                                   nmN.Kinv, nmN.RU, nmN.RV, nmN.RA, nmN.Ml, nmN.a, ag, noise,
-                                   kin, K5, C5, M5, G, qm, inv_dt, cfg.stroke_limit, zt, zm,
-                                   XAT, XAM, XH, NUM, FF)
+        if numerical is None:
+            n_alive -= kernels.measure(k, alive, stop_at, stop_val, Xp, Cp, U, V, A, R, Fv,
+                                       nmN.Kinv, nmN.RU, nmN.RV, nmN.RA, nmN.Ml, nmN.a, ag,
+                                       noise, kin, K5, C5, M5, G, qm, inv_dt,
+                                       cfg.stroke_limit, zt, zm, XAT, XAM, XH, NUM, FF)
+        else:
+            kernels.feedback(k, 0, Xp, Cp, noise, kin, K5, C5, M5, G, qm, inv_dt, zm, XH, FF,
+                             Fi)
+            if not numerical.step(float(ag[k]), Fi):
+                failed = numerical.reason
+                stop_at[0] = k
+                alive[0] = False
+                break
+            n_alive -= kernels.targets(k, 0, numerical.u, kin, cfg.stroke_limit, alive,
+                                       stop_at, stop_val, zt, zm, XAT, XAM, NUM)
         np.multiply(zt, 1e-3, out=zt_si)
         np.multiply(zm, 1e-3, out=zm_si)
         np.subtract(zt_si, zprev, out=zd_si)
@@ -342,7 +369,7 @@ def run_marths(cfg: MarthsConfig | None = None, compensator: Any = "rodeac",
             break
     results = []
     for i, p in enumerate(plant_list):
-        n = N if stop_at[i] < 0 else int(stop_at[i]) + 1
+        n = N if stop_at[i] < 0 else int(stop_at[i]) + (0 if failed else 1)
         res = MarthsResult(cfg, t[:n].copy(), ag[:n].copy(), XAT[:n, i].copy(),
                            XAM[:n, i].copy(), UL[:n, i].copy(), XH[:n, i].copy(),
                            NUM[:n, i].copy(), ref[:n].copy(), FF[:n, i].copy(), p,
@@ -352,7 +379,8 @@ def run_marths(cfg: MarthsConfig | None = None, compensator: Any = "rodeac",
             stop = comps.stop(i) if comp_stop[i] else SafetyStop(
                 "measured actuator displacement |x_a,m|", float(stop_val[i]),
                 cfg.stroke_limit, float(t[n - 1]), i, "mm")
-            res.reason = stop.reason if stop is not None else "compensator stopped"
+            res.reason = failed or (stop.reason if stop is not None else
+                                    "compensator stopped")
         else:
             res.j = marths_criteria(res.xa_t, res.xa_m, res.x_hat, res.num, res.ref, cfg.fs)
         results.append(res)

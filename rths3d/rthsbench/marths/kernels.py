@@ -14,7 +14,7 @@ from numba import njit
 
 from .model import _a2f, _f2a, newmark_step
 
-__all__ = ["advance", "measure"]
+__all__ = ["advance", "feedback", "measure", "targets"]
 
 IX, ITH, ITH2, IX2, IR2, IX3, IR3 = 26, 20, 28, 25, 21, 12, 2
 """0-based rows of equations 27, 21, 29, 26, 22, 13, 3."""
@@ -87,6 +87,75 @@ def measure(k, alive, stop_at, stop_val, Xp, Cp, U, V, A, R, Fv, Kinv, RU, RV, R
             stop_val[i] = worst
             n_stop += 1
     return n_stop
+
+
+@njit(cache=True, nogil=True)
+def feedback(k, i, Xp, Cp, noise, kin, K5, C5, M5, G, qm, inv_dt, zm, XH, FF, Fi):
+    """Steps 1–4 of :func:`measure` for trial ``i`` when the numerical substructure is
+    stepped outside (an OpenSees model): the measurement into ``zm[i]`` (mm), x̂, θ̂ into
+    ``XH[k, i]``, the specimen's force into ``FF[k, i]`` and the benchmark's F at equations
+    27, 21, 29 into ``Fi`` (3,)."""
+    nk = noise[k]
+    y1 = 0.0
+    y2 = 0.0
+    for c in range(Xp.shape[1]):
+        y1 += Cp[i, 0, c] * Xp[i, c]
+        y2 += Cp[i, 1, c] * Xp[i, c]
+    xm1 = y1 + nk
+    xm2 = y2 + nk
+    xh, th = _a2f(xm1, xm2, kin)
+    q = (xh, th, G[0, 0] * xh + G[0, 1] * th, G[1, 0] * xh + G[1, 1] * th,
+         G[2, 0] * xh + G[2, 1] * th)
+    for r in range(3):
+        s = 0.0
+        for c in range(5):
+            if k > 0:
+                qd = (q[c] - qm[i, c]) * inv_dt
+                qdd = (qd - qm[i, 5 + c]) * inv_dt
+            else:
+                qd = 0.0
+                qdd = 0.0
+            s += K5[r, c] * q[c] + C5[r, c] * qd + M5[r, c] * qdd
+        FF[k, i, r] = s
+    for c in range(5):
+        qd = (q[c] - qm[i, c]) * inv_dt if k > 0 else 0.0
+        qm[i, 5 + c] = qd
+        qm[i, c] = q[c]
+    Fi[0] = FF[k, i, 0]
+    Fi[1] = -FF[k, i, 1]
+    Fi[2] = -FF[k, i, 2]
+    zm[i, 0] = xm1
+    zm[i, 1] = xm2
+    XH[k, i, 0] = 1000.0 * xh
+    XH[k, i, 1] = th
+
+
+@njit(cache=True, nogil=True)
+def targets(k, i, u, kin, limit, alive, stop_at, stop_val, zt, zm, XAT, XAM, NUM):
+    """Steps 5–6 of :func:`measure` for trial ``i`` from the numerical substructure's U at
+    equations 27, 21, 26, 22, 13, 3 (``u``, m and rad): the actuator targets, the logs and
+    the stroke check (returns 1 when the trial stops, else 0)."""
+    xa1, xa2 = _f2a(u[0], -u[1], kin)
+    zt[i, 0] = xa1
+    zt[i, 1] = xa2
+    xm1, xm2 = zm[i, 0], zm[i, 1]
+    XAT[k, i, 0] = xa1
+    XAT[k, i, 1] = xa2
+    XAM[k, i, 0] = xm1
+    XAM[k, i, 1] = xm2
+    NUM[k, i, 0] = 1000.0 * u[0]
+    NUM[k, i, 1] = -u[1]
+    NUM[k, i, 2] = u[2]
+    NUM[k, i, 3] = u[3]
+    NUM[k, i, 4] = u[4]
+    NUM[k, i, 5] = u[5]
+    worst = max(abs(xm1), abs(xm2))
+    if not (worst <= limit):  # also catches NaN
+        alive[i] = False
+        stop_at[i] = k
+        stop_val[i] = worst
+        return 1
+    return 0
 
 
 @njit(cache=True, nogil=True)

@@ -67,10 +67,12 @@ def run_set(names: Sequence[str], records: Sequence[str], intensity: float = 0.4
             params: Mapping[str, Mapping[str, Any]] | None = None, noise: bool = True,
             t_end: float | None = None, fs: float = 1024.0, data_path: str | None = None,
             keep: Callable[[str, str, MarthsResult], None] | None = None,
-            progress: Callable[[str, str], None] | None = None) -> dict[str, Any]:
+            progress: Callable[[str, str], None] | None = None,
+            numerical: Any = None) -> dict[str, Any]:
     """Every compensator in ``names`` on every record, nominal plant plus ``trials``
     perturbed ones (drawn with ``seed``, the same for all), stepped together. Returns
-    ``{record: {name: entry}}``; ``keep(record, name, nominal_result)`` sees each nominal run."""
+    ``{record: {name: entry}}``; ``keep(record, name, nominal_result)`` sees each nominal run.
+    ``numerical``: an outside numerical substructure (:func:`.engine.run_marths`)."""
     params = params or {}
     plants = [NOMINAL, *perturbed_plants(trials, seed)]
     rec = None
@@ -87,7 +89,7 @@ def run_set(names: Sequence[str], records: Sequence[str], intensity: float = 0.4
             if progress is not None:
                 progress(cfg.record, n)
             rs = run_marths(cfg, n, confs[n], plants=plants, data_path=data_path, gm=gm,
-                            initial=initial)
+                            initial=initial, numerical=numerical)
             out[cfg.record][n] = entry(rs)
             if keep is not None:
                 keep(cfg.record, n, rs[0])
