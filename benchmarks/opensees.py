@@ -11,7 +11,12 @@ yielding ``Steel02`` storeys (``Newton``), ``ratio_steel02_<n>`` against the int
 their initial stiffness. Every figure is the median over repetitions of 2000 steps (``--quick``:
 one repetition of 1000). ``stewart_frame_rtf``: the real-time factor of the closed loop of
 ``scenes/opensees_frame_stewart.toml`` (the yielding two-storey frame on the Stewart platform,
-4 s, no reference): ≥ 1 is faster than real time.
+4 s, no reference): ≥ 1 is faster than real time. ``marths_internal_s`` /
+``marths_opensees_s``: one maRTHS run (RoDeAC, nominal plant, sensor noise, El Centro × 0.4,
+the whole 41.2 s record; ``--quick``: its first 10 s) with the benchmark's internal frame and
+with the 29-DOF frame as an OpenSees model (``scenes/opensees/marths_frame.py``),
+``marths_opensees_rtf`` the record's duration over the OpenSees run's time and
+``marths_j_rel_max`` the largest relative difference of their 24 J-values.
 """
 
 from __future__ import annotations
@@ -73,6 +78,27 @@ def _per_step_us(sub, steps: int) -> float:
     return (time.perf_counter() - t0) / steps * 1e6
 
 
+def _marths(root: Path, t_end: float | None) -> dict:
+    """The maRTHS run with the internal frame and with the OpenSees frame (see above)."""
+    from rths3d.rthsbench.marths import MarthsConfig, run_marths
+    from rths3d.rthsbench.marths.opensees_frame import OpenSeesFrame
+
+    cfg = MarthsConfig(t_end=t_end)
+    run_marths(MarthsConfig(t_end=0.01))  # compiled once
+    t0 = time.perf_counter()
+    inner = run_marths(cfg)[0]
+    t1 = time.perf_counter()
+    with OpenSeesFrame(root / "scenes" / "opensees" / "marths_frame.py", cfg.dt) as frame:
+        t2 = time.perf_counter()
+        ext = run_marths(cfg, numerical=frame)[0]
+        t3 = time.perf_counter()
+    rel = max(abs(a - b) / abs(b) for key, ref in inner.j.items()
+              for a, b in zip(ext.j[key], ref, strict=True) if b != 0.0)
+    return {"marths_internal_s": round(t1 - t0, 2), "marths_opensees_s": round(t3 - t2, 2),
+            "marths_opensees_rtf": round(float(inner.t[-1]) / (t3 - t2), 2),
+            "marths_j_rel_max": float(f"{rel:.2g}")}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="one repetition of 1000 steps")
@@ -117,6 +143,7 @@ def main() -> None:
         scene = rths3d.load_scene(root_dir / "scenes" / "opensees_frame_stewart.toml")
         rtfs = [rths3d.run(scene, reference=False).rtf for _ in range(reps)]
         out["stewart_frame_rtf"] = round(statistics.median(rtfs), 2)
+    out.update(_marths(root_dir, 10.0 if args.quick else None))
     print(json.dumps(out))
 
 
