@@ -392,7 +392,7 @@ class Scene:
                 v = getattr(obj, f.name)
                 if sec == "experiment" and f.name in EXPERIMENT_EXTRA and not v:
                     continue
-                if sec == "numerical" and f.name in NUMERICAL_EXTRA and obj.kind == "linear":
+                if sec == "numerical" and f.name in NUMERICAL_EXTRA and obj.has_matrices:
                     continue
                 out[f"{sec}.{f.name}"] = v
         for e in self.effects:

@@ -56,7 +56,7 @@ def reference_solution(scenes: list[Scene], *, tol: float | None = None, max_ite
     base = scenes[0]
     N = base.n_steps
     # a plugged-in substructure must integrate implicitly in F_{n+1} when given f_next
-    if numerical is None and base.numerical.kind != "linear":
+    if numerical is None and not base.numerical.has_matrices:
         numerical = numerical_factory(base)  # the scene's kind (e.g. an OpenSees model)
     num = numerical(scenes) if numerical is not None else \
         LinearSubstructure.from_scenes(scenes, method="exact")

@@ -570,8 +570,9 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
     out: dict[str, Any] = {"name": scene.name, "dofs": list(scene.dofs), "dt": scene.dt,
                            "duration": scene.duration}
     nm = scene.numerical
-    if nm.kind != "linear":
-        out["numerical"] = numerical_class(nm.kind).section(nm)
+    section = getattr(numerical_class(nm.kind), "section", None)
+    if section is not None:  # a registered kind writes its own table
+        out["numerical"] = section(nm)
     elif nm.n == 1:
         out["numerical"] = {"m": nm.M[0][0], "c": nm.C[0][0], "k": nm.K[0][0],
                             "gamma": [list(r) for r in nm.gamma],

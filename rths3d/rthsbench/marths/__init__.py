@@ -32,10 +32,12 @@ from .model import (
     partition,
     specimen,
 )
+from .opensees_frame import OpenSeesFrame
 from .plant import NOMINAL, PlantZPK, perturbed_plants
 
 __all__ = [
-    "COUPLER", "J_COUNTS", "NOMINAL", "RECORDS", "MarthsConfig", "MarthsResult", "Partition",
+    "COUPLER", "J_COUNTS", "NOMINAL", "RECORDS", "MarthsConfig", "MarthsResult", "OpenSeesFrame",
+    "Partition",
     "PlantZPK", "Specimen", "actuator_to_frame", "data_dir", "default_config", "find_delay",
     "flat_keys", "frame_to_actuator", "ideal_physical", "load_record",
     "load_reference_matrices", "marths_criteria", "newmark_matrices", "newmark_response",
