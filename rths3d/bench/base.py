@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from ..config import EffectConfig, ExperimentConfig, Scene
-from ..effects.base import STAGES, Effect, get_effect
+from ..effects.base import REGISTRY, STAGES, Effect, get_effect
 from ..effects.blocks import Block
 from ..experiment import make_part
 from ..platform.calibration import CalibratedGeometry
@@ -246,9 +246,8 @@ def setpoint_structure(benches: Sequence[Bench]) -> list[str]:
         for n in b.setpoint_values():
             if n not in names:
                 names.append(n)
-    order = {n: i for i, n in enumerate(
-        e for e in ("delay", "actuator_lag", "velocity_saturation", "backlash"))}
-    return sorted(names, key=lambda n: order.get(n, 99))
+    order = {n: i for i, n in enumerate(REGISTRY)}
+    return sorted(names, key=order.__getitem__)
 
 
 def setpoint_blocks(benches: Sequence[Bench]) -> list[Block]:

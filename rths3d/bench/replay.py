@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..config import EffectConfig, Scene
-from ..effects import WRENCH
+from ..effects import WRENCH, get_effect
 from ..errors import ConfigError, RecordError
 from ..platform.ranges import track_batch
 from ..platform.sim import plate_pose
@@ -125,7 +125,7 @@ class BenchReplay:
 
         quiet = dataclasses.replace(self.scene.sensor, noise_std=0.0)
         scenes = [dataclasses.replace(self.scene, sensor=quiet, effects=tuple(
-            e for e in E if e.name != "sensor_noise")) for E in effect_sets]
+            e for e in E if not get_effect(e.name).floor)) for E in effect_sets]
         return sensor_chain(scenes, len(self.dofs))
 
     def run(self, effect_sets: Sequence[Sequence[EffectConfig]],

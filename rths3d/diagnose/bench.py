@@ -43,10 +43,12 @@ def resolve_bench(scene: str | Path | None, meta: Mapping[str, Any] | None
         sc = load_scene("paper_contact")
         warns.append("the record names no bench (no meta.scene_def): using the shipped scene "
                      "'paper_contact' (part contact, m = 0.38 kg, k = 8650 N/m); pass --scene")
-    if sc.transfer.kind != "stewart":
+    from ..transfer import StewartTransfer, transfer_class
+
+    if not getattr(transfer_class(sc.transfer.kind), "replays_bench", False):
         warns.append(f"the bench's transfer system is {sc.transfer.kind!r}: the diagnosis "
                      "replays it through the Stewart platform with the same leg-servo "
                      "settings")
         sc = dataclasses.replace(sc, transfer=dataclasses.replace(sc.transfer,
-                                                                  kind="stewart"))
+                                                                  kind=StewartTransfer.kind))
     return sc, warns

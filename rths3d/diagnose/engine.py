@@ -40,8 +40,9 @@ import numpy as np
 
 from ..bench import BenchReplay, ReplayInput
 from ..config import Scene
-from ..effects import REGISTRY, get_effect, parse_label
+from ..effects import REGISTRY, ProbeData, bench_effects, get_effect, parse_label
 from ..errors import ConfigError, RecordError
+from ..experiment import part_class
 from ..record import Record
 from .bench import resolve_bench
 from .calibrations import Calibrations
@@ -64,14 +65,10 @@ def default_candidates(scene: Scene) -> list[str]:
     calibrations. Part effects a part does not have (a contact gap without a surface) are
     left out."""
     out: list[str] = []
-    contact = scene.experiment.kind in ("contact", "multidof")
-    spring = scene.experiment.kind in ("contact", "linear", "multidof")
+    part = part_class(scene.experiment.kind)
     for name, eff in REGISTRY.items():
-        if not eff.candidate or eff.stage == "geometry" and name != "leg_offset":
-            continue
-        if eff.stage == "fts" or (name == "contact_gap" and not contact):
-            continue
-        if name in ("specimen_stiffness", "specimen_damping") and not spring:
+        # anchors and the FTS matrix are fitted together by the calibrations (MULTI)
+        if not eff.candidate or eff.calibrated or not eff.exists_for(part):
             continue
         for leg, axis in eff.targets():
             out.append(name + (f".leg{leg}" if leg >= 0 else "") + (f".{axis}" if axis else ""))
@@ -130,8 +127,7 @@ class Diagnosis(RoundStages, Calibrations):
         if scene is None:
             scene, self.warnings = resolve_bench(None, record.meta)
         self.scene = scene
-        self.base_effects = {e.label: e.value for e in scene.effects
-                             if e.name != "sensor_noise"}
+        self.base_effects = bench_effects(scene)
         inp = ReplayInput.from_record(record, scene.dofs)
         if inp.source == "z_cmd":
             self.warnings.append("the record has no pose_cmd.*: replaying z_cmd of the "
@@ -175,6 +171,7 @@ class Diagnosis(RoundStages, Calibrations):
         if self.val.sum() < 10:
             raise ConfigError("block", block, f"too long for a {record.duration:.3g} s record")
         self.accepted: dict[str, float] = {}
+        self._lengths: tuple[Any, np.ndarray] | None = None
         self.fixed: set[str] = set()
         self.cov: dict[str, tuple[float, float]] = {}
         self._cache: dict[tuple, dict[str, np.ndarray]] = {}
@@ -426,30 +423,20 @@ class Diagnosis(RoundStages, Calibrations):
 
     # ------------------------------------------------------------------ one round
     def _probe(self, label: str) -> float:
-        """The probe value of a candidate: a typical magnitude; a speed limit at 80 % of the
-        peak set-point speed of its leg."""
+        """The probe value of a candidate: its effect's size for this test (a typical
+        magnitude, or one sized from the replayed set-points and measurements)."""
         name, leg, _ = parse_label(label)
-        eff = get_effect(name)
-        if name == "velocity_saturation":
+        return get_effect(name).probe_value(
+            ProbeData(leg, self._setpoint_lengths, self.measured, self.dt))
+
+    def _setpoint_lengths(self) -> np.ndarray:
+        """The controller's leg set-points (N, 6) (m) of the replayed poses."""
+        if self._lengths is None or self._lengths[0] is not self.replay:
             from ..platform.kinematics import inverse_kinematics
 
-            L = inverse_kinematics(self.scene_geometry, self.replay.poses)
-            v = np.abs(np.diff(L, axis=0)) / self.dt
-            legs = range(6) if leg < 0 else [leg]
-            vc = max(float(v[:, i].max()) for i in legs)
-            guess = 0.8 * vc
-            # signature: the encoders' peak speed (over 5 samples, so the noise averages)
-            # below the commanded one is the limit itself
-            m = 5
-            enc = [f"leg_len.{i}" for i in legs if f"leg_len.{i}" in self.measured]
-            if enc:
-                vm = max(float(np.percentile(np.abs(
-                    self.measured[c][m:] - self.measured[c][:-m]) / (m * self.dt), 99.8))
-                         for c in enc)
-                if vm < 0.97 * vc:
-                    guess = vm
-            return float(np.clip(guess, eff.param.lo, eff.param.hi))
-        return eff.probe_value()
+            self._lengths = (self.replay,
+                             inverse_kinematics(self.scene_geometry, self.replay.poses))
+        return self._lengths[1]
 
     @property
     def scene_geometry(self):

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ..effects import get_effect
+from ..effects import get_effect, parse_label
 from .candidates import is_revision
 from .localise import effective_samples, remaining_structure
 from .result import MULTI, NOISE_LIKE, Candidate, RoundResult
@@ -181,18 +181,17 @@ class RoundStages:
                       est, gain, deltas, tuple(revs))
 
     def _anchor_followups(self, gain: dict[str, float]) -> list[str]:
-        """The anchor candidates of the leg whose encoder offset has the largest predicted
-        error drop of the single-parameter candidates (when it has), not yet screened:
-        ``base_anchor.leg{i}.{x,y,z}`` and ``top_anchor.leg{i}.{x,y,z}``."""
+        """The follow-up candidates (:attr:`Effect.followups`) of the leg whose effect has the
+        largest predicted error drop of the single-parameter candidates, not yet screened:
+        for an encoder offset ``base_anchor.leg{i}.{x,y,z}`` and ``top_anchor.leg{i}.{x,y,z}``."""
         single = [k for k in gain if k not in MULTI and not is_revision(k)]
         if not single:
             return []
-        best = max(single, key=lambda k: gain[k])
-        if not best.startswith("leg_offset.leg"):
+        name, leg, _ = parse_label(max(single, key=lambda k: gain[k]))
+        if leg < 0:
             return []
-        leg = best.split(".")[1]
-        return [lab for lab in (f"{kind}.{leg}.{ax}" for kind in ("base_anchor", "top_anchor")
-                                for ax in "xyz")
+        return [lab for lab in (f"{f}.leg{leg}.{ax}" for f in get_effect(name).followups
+                                for ax in get_effect(f).axes)
                 if lab not in gain and lab not in self.accepted]
 
     def _refit(self, s: Screen

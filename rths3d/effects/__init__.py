@@ -10,6 +10,8 @@ from .base import (
     STAGES,
     Effect,
     Param,
+    ProbeData,
+    bench_effects,
     get_effect,
     parse_effect_arg,
     parse_label,
@@ -17,5 +19,6 @@ from .base import (
 )
 from .library import WRENCH, describe, noise_sigma
 
-__all__ = ["REGISTRY", "STAGES", "WRENCH", "Effect", "Param", "describe", "get_effect",
-           "noise_sigma", "parse_effect_arg", "parse_label", "register"]
+__all__ = ["REGISTRY", "STAGES", "WRENCH", "Effect", "Param", "ProbeData", "bench_effects",
+           "describe", "get_effect", "noise_sigma", "parse_effect_arg", "parse_label",
+           "register"]

@@ -51,6 +51,21 @@ LEGS = tuple(range(6))
 
 
 @dataclass(frozen=True)
+class ProbeData:
+    """What a probe of a candidate may be sized from (the diagnosis fills it).
+
+    ``leg``: the candidate's leg (−1: all); ``setpoint_lengths``: a callable giving the
+    controller's leg set-points (N, 6) (m) of the replayed poses, computed when first asked;
+    ``measured``: the record's channels; ``dt``: the interface step (s).
+    """
+
+    leg: int
+    setpoint_lengths: Any
+    measured: Any
+    dt: float
+
+
+@dataclass(frozen=True)
 class Param:
     """One effect parameter.
 
@@ -113,6 +128,17 @@ class Effect:
     late: ClassVar[bool] = False
     """Applied after the other effects of its stage (e.g. a compliance in series with the
     servo acts on the servo's gain as the other effects left it)."""
+    calibrated: ClassVar[bool] = False
+    """Found together with others by a calibration (the kinematic calibration's anchors, the
+    FTS calibration's matrix), not screened one at a time."""
+    requires: ClassVar[tuple[str, ...]] = ()
+    """What the part must have for the effect to exist on a bench: names of
+    :class:`~rths3d.experiment.ExperimentalPart` flags (``has_contact``, ``has_spring``)."""
+    followups: ClassVar[tuple[str, ...]] = ()
+    """Calibrated effects screened next, on the same leg, when this one leads a screening."""
+    floor: ClassVar[bool] = False
+    """Measurement noise: the floor every residual is judged against, never part of a
+    replayed bench."""
 
     @property
     def needs_sim(self) -> bool:
@@ -170,8 +196,13 @@ class Effect:
         raise NotImplementedError
 
     # ------------------------------------------------------------------ fitting help
-    def probe_value(self) -> float:
-        """The value used to screen this effect (a typical magnitude)."""
+    def exists_for(self, part: Any) -> bool:
+        """Whether the effect can act on a bench with this part (class or instance)."""
+        return all(getattr(part, flag, False) for flag in self.requires)
+
+    def probe_value(self, probe: ProbeData | None = None) -> float:
+        """The value used to screen this effect (a typical magnitude); ``probe`` gives the
+        replayed test's set-points and measurements to effects whose size depends on them."""
         return float(np.clip(self.param.off + self.param.scale, self.param.lo, self.param.hi))
 
     def __repr__(self) -> str:
@@ -227,3 +258,9 @@ def parse_effect_arg(text: str) -> tuple[str, float | None]:
     if not sep:
         return lab, None
     return lab, eff.param.check(raw.strip(), lab)
+
+
+def bench_effects(scene: Any) -> dict[str, float]:
+    """A scene's effects by label with their values, less the measurement noise (the floor a
+    replay is compared against, not part of the bench it replays)."""
+    return {e.label: e.value for e in scene.effects if not get_effect(e.name).floor}

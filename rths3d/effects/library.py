@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .base import Effect, Param, register
+from .base import Effect, Param, ProbeData, register
 from .blocks import Block, DelayBlock, LagBlock, PlayBlock, RateLimitBlock
 
 WRENCH = ("fx", "fy", "fz", "tx", "ty", "tz")
@@ -96,6 +96,26 @@ class VelocitySaturation(Effect):
                   "largest leg speed; faster set-points are rate-limited")
     description = "Leg velocity saturation: the set-point is rate-limited to ±v_max."
     signature = "clipping of the leg velocity above a threshold; residual only at high speed"
+
+    def probe_value(self, probe: ProbeData | None = None) -> float:
+        """80 % of the peak set-point speed of its leg(s); below that, the encoders' peak
+        speed where they never reach the commanded one (the limit itself shows)."""
+        if probe is None:
+            return super().probe_value()
+        v = np.abs(np.diff(probe.setpoint_lengths(), axis=0)) / probe.dt
+        legs = range(6) if probe.leg < 0 else [probe.leg]
+        vc = max(float(v[:, i].max()) for i in legs)
+        guess = 0.8 * vc
+        # over 5 samples, so that the encoders' noise averages
+        m = 5
+        enc = [f"leg_len.{i}" for i in legs if f"leg_len.{i}" in probe.measured]
+        if enc:
+            vm = max(float(np.percentile(np.abs(
+                probe.measured[c][m:] - probe.measured[c][:-m]) / (m * probe.dt), 99.8))
+                     for c in enc)
+            if vm < 0.97 * vc:
+                guess = vm
+        return float(np.clip(guess, self.param.lo, self.param.hi))
 
     def block(self, K: int, values: np.ndarray, dt: float) -> Block:
         return RateLimitBlock(K, len(values) // K, values, dt)
@@ -251,6 +271,7 @@ def _payload_joint(spec: Any) -> Any:
 class SpecimenStiffness(Effect):
     name = "specimen_stiffness"
     stage = "spec"
+    requires = ("has_spring",)
     param = Param("dk", "1", 0.0, -0.9, 3.0, 0.1, "relative stiffness error: k' = (1 + dk)·k")
     description = "The part's stiffness differs from the model."
     signature = "force residual ∝ the part's deformation; resonance shifts"
@@ -283,6 +304,7 @@ class SpecimenMass(Effect):
 class SpecimenDamping(Effect):
     name = "specimen_damping"
     stage = "spec"
+    requires = ("has_spring",)
     param = Param("dc", "N·s/m", 0.0, -1e3, 1e4, 2.0, "damping of the part added to the model's")
     description = "The part's damping differs from the model: d' = d + dc."
     signature = "force residual ∝ the part's deformation rate, largest near resonance"
@@ -297,6 +319,7 @@ class SpecimenDamping(Effect):
 class ContactGap(Effect):
     name = "contact_gap"
     stage = "spec"
+    requires = ("has_contact",)
     param = Param("dh", "m", 0.0, -0.01, 0.01, 2e-4, "error of the gap to the contact surface")
     description = "The contact surface is dh further away than modelled."
     signature = "force residual only in and near contact phases"
@@ -313,6 +336,7 @@ class ContactGap(Effect):
 class BaseAnchor(Effect):
     name = "base_anchor"
     stage = "geometry"
+    calibrated = True
     per_leg = True
     axes = ("x", "y", "z")
     param = Param("d", "m", 0.0, -0.02, 0.02, 1e-3, "base anchor position error")
@@ -327,6 +351,7 @@ class BaseAnchor(Effect):
 class TopAnchor(Effect):
     name = "top_anchor"
     stage = "geometry"
+    calibrated = True
     per_leg = True
     axes = ("x", "y", "z")
     param = Param("d", "m", 0.0, -0.02, 0.02, 1e-3, "platform anchor position error")
@@ -342,6 +367,7 @@ class LegOffset(Effect):
     name = "leg_offset"
     stage = "geometry"
     per_leg = True
+    followups = ("base_anchor", "top_anchor")  # an anchor's error also reads along its leg
     param = Param("d", "m", 0.0, -0.02, 0.02, 2e-4,
                   "encoder offset: the encoder reads the geometric length plus d")
     description = "A leg's encoder zero is off: the leg is d shorter than the encoder says."
@@ -370,6 +396,7 @@ class GravityComp(Effect):
 class FtsGain(Effect):
     name = "fts_gain"
     stage = "fts"
+    calibrated = True
     axes = WRENCH
     param = Param("g", "1", 0.0, -0.5, 0.5, 0.02, "relative gain error of one FTS channel")
     description = "FTS calibration: one channel reads (1 + g) times the true component."
@@ -384,6 +411,7 @@ class FtsGain(Effect):
 class FtsCrosstalk(Effect):
     name = "fts_crosstalk"
     stage = "fts"
+    calibrated = True
     axes = CROSS
     param = Param("c", "1", 0.0, -0.3, 0.3, 0.01,
                   "share of one component read on another channel (row.column)")
@@ -399,6 +427,7 @@ class FtsCrosstalk(Effect):
 class FtsOffset(Effect):
     name = "fts_offset"
     stage = "fts"
+    calibrated = True
     axes = WRENCH
     param = Param("b", "N", 0.0, -100.0, 100.0, 0.5,
                   "zero offset of one FTS channel (N or N·m)")
@@ -427,6 +456,7 @@ class FtsLowpass(Effect):
 class SensorNoise(Effect):
     name = "sensor_noise"
     stage = "noise"
+    floor = True
     candidate = False
     lti = True
     param = Param("level", "1", 0.0, 0.0, 100.0, 1.0,

@@ -67,6 +67,13 @@ class ExperimentalPart:
 
     kind: ClassVar[str] = ""
     dofs: ClassVar[tuple[str, ...]] = ("z",)
+    has_contact: ClassVar[bool] = False
+    """It meets a world-fixed surface across a gap (the gap is a property of the bench)."""
+    has_spring: ClassVar[bool] = False
+    """It has an interface stiffness and damping of its own (a specimen, not only a mass)."""
+    rigid_payload: ClassVar[bool] = False
+    """It is one rigid body on the sensor: its mass, centre of mass and inertia are what the
+    bench's statics identify."""
 
     def __init__(self, cfg: ExperimentConfig):
         self.cfg = cfg

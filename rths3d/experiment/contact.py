@@ -17,6 +17,7 @@ class ContactPart(LinearPart):
     (N·s/m). MuJoCo's soft contact is set to the same penalty law as the numpy model."""
 
     kind = "contact"
+    has_contact = True
 
     def _tip_xml(self) -> str:
         return (f'<geom name="exp_tip" type="sphere" size="{TIP_RADIUS}" '

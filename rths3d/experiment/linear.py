@@ -21,6 +21,7 @@ class LinearPart(ExperimentalPart):
     q = 0, displacements from static equilibrium as in the paper)."""
 
     kind = "linear"
+    has_spring = True
     dofs = ("z",)
 
     def payload_xml(self) -> str:

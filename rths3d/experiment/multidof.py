@@ -17,6 +17,7 @@ class MultiDofPart(ExperimentalPart):
     model): the loop runs it behind a prescribed mount or on the platform."""
 
     kind = "multidof"
+    has_contact = has_spring = True
     dofs = ("z", "ry")
 
     def contact_attrs(self) -> str:

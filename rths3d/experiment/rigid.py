@@ -51,6 +51,7 @@ class RigidPart(ExperimentalPart):
     MuJoCo specimen off the platform)."""
 
     kind = "rigid"
+    rigid_payload = True
     dofs = ("x", "y", "z", "rx", "ry", "rz")
 
     @classmethod

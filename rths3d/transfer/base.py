@@ -95,6 +95,10 @@ class TransferSystem(Protocol):
     signals: tuple[RecordSignal, ...]
     part_model: str
     """The part's model, ``numpy`` or ``mujoco``: the reference z^r uses the same."""
+    replays_bench: ClassVar[bool]
+    """Its physics is the Stewart bench model (:class:`rths3d.bench.Bench`) that the
+    diagnosis replays; a record made through another system is replayed through that bench
+    with the same servo settings. Absent: False."""
 
     @classmethod
     def build(cls, scenes: Sequence[Scene], *, nthread: int = 0,

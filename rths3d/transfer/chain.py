@@ -33,20 +33,21 @@ def _with_effects(scenes: Sequence[Scene], n: int, act: Chain, metas: list[dict[
     transport ``delay`` and the ``actuator_lag`` of all legs act on every interface DOF (the
     sensor effects are in the sensor chain); the others are listed in each test's metadata
     as ``ignored_effects``."""
-    from ..effects import get_effect
+    from ..effects import REGISTRY, get_effect
 
     K = len(scenes)
     blocks = list(act.blocks)
-    for name in ("delay", "actuator_lag"):
+    # the set-point effects a 1-D chain has (transport delay, lag), in the library's order
+    for name, eff in REGISTRY.items():
+        if not (eff.lti and eff.stage == "setpoint"):
+            continue
         vals = [sum(e.value for e in s.effects if e.name == name and e.leg < 0)
                 for s in scenes]
         if any(v > 0 for v in vals):
-            blocks.append(get_effect(name).block(K, np.repeat(vals, n), scenes[0].dt))
+            blocks.append(eff.block(K, np.repeat(vals, n), scenes[0].dt))
     out = []
     for s, m in zip(scenes, metas, strict=True):
-        ign = [e.label for e in s.effects
-               if not (get_effect(e.name).lti and e.leg < 0) or e.name not in
-               ("delay", "actuator_lag", "fts_lowpass", "sensor_noise")]
+        ign = [e.label for e in s.effects if not (get_effect(e.name).lti and e.leg < 0)]
         out.append({**m, "ignored_effects": ign} if ign else m)
     return (Chain(K, n, blocks) if len(blocks) != len(act.blocks) else act), out
 

@@ -65,6 +65,8 @@ class StewartTransfer:
     kind: ClassVar[str] = "stewart"
     leg_compensation: ClassVar[bool] = True
     """It has legs: ``transfer.compensate = "legs"`` compensates each (:mod:`.legs`)."""
+    replays_bench: ClassVar[bool] = True
+    """The diagnosis' replay is this system's own bench model."""
 
     def __init__(self, scenes: Sequence[Scene], nthread: int = 0):
         self.scenes = list(scenes)

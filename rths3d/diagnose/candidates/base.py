@@ -9,6 +9,7 @@ from typing import Any, ClassVar, Protocol
 import numpy as np
 
 from ...config import Scene
+from ...experiment import part_class
 
 __all__ = ["DESCRIPTIONS", "PREFIX", "DescriptionCandidate", "Revision", "current",
            "is_revision", "register_description", "revised_scene", "revisions"]
@@ -111,7 +112,7 @@ def current(scene: Scene, key: str) -> Any:
     if node is not None:
         return node
     sec, _, leaf = key.partition(".")
-    if key == "experiment.com" and scene.experiment.kind == "rigid" and \
+    if key == "experiment.com" and part_class(scene.experiment.kind).rigid_payload and \
             not scene.experiment.com:
         from ...experiment.mjcf import MASS_HEIGHT
 

@@ -13,6 +13,7 @@ import numpy as np
 
 from ...config import Scene
 from ...effects import WRENCH
+from ...experiment import part_class
 from ...record import DOFS
 from .base import Revision, current, register_description
 
@@ -38,7 +39,7 @@ class PayloadParameters:
         from ...errors import ConfigError
         from ..payload import PayloadIdentification
 
-        if scene.experiment.kind != "rigid":
+        if not part_class(scene.experiment.kind).rigid_payload:
             return []
         src = "pose_meas" if all(f"pose_meas.{d}" in measured for d in DOFS) else None
         if src is None or not all(f"fts.{c}" in measured for c in WRENCH):

@@ -11,7 +11,7 @@ import numpy as np
 
 from ...bench import BenchReplay
 from ...config import EffectConfig, Scene
-from ...effects import parse_label
+from ...effects import bench_effects, parse_label
 from ...errors import ConfigError
 from .base import PREFIX, Revision, current, revised_scene, revisions
 
@@ -120,8 +120,7 @@ def revise(diag: Any, label: str) -> Revision:
                               (", ".join(found) or "none"))
     old = {k: current(diag.scene, k) for k in rev.changes}
     diag.scene = revised_scene(diag.scene, rev.changes)
-    diag.base_effects = {e.label: e.value for e in diag.scene.effects
-                         if e.name != "sensor_noise"}
+    diag.base_effects = bench_effects(diag.scene)
     diag.replay = _replay(diag, diag.scene)
     diag._cache.clear()
     diag._revs.clear()
