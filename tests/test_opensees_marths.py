@@ -94,7 +94,7 @@ def test_marths_with_the_opensees_frame_equals_the_internal_frame(folder):
 
 def test_bad_models_and_a_failed_step(folder, tmp_path):
     """A missing file, a model without an equation's node, two plants, a wrong dt: one
-    ConfigError naming the field. A model OpenSees cannot solve stops the trial safely with
+    ConfigError naming the field. A frame reused starts each run from rest. A model OpenSees cannot solve stops the trial safely with
     the reason and the samples before."""
     with pytest.raises(ConfigError, match="opensees model"):
         OpenSeesFrame(tmp_path / "nowhere.py", 1 / 1024)
@@ -111,6 +111,12 @@ def test_bad_models_and_a_failed_step(folder, tmp_path):
         with pytest.raises(ConfigError) as info:
             run_marths(MarthsConfig(t_end=0.05, fs=2048.0), numerical=frame)
         assert info.value.field == "numerical.dt"
+        # one frame for several runs (a command's records and compensators): each starts
+        # from rest, the model rebuilt
+        short = MarthsConfig(record="Kobe", t_end=2.0)
+        a, b = (run_marths(short, numerical=frame)[0] for _ in range(2))
+        assert np.max(np.abs(a.num[:, 0])) > 1e-4  # mm (0.76 µm: the quiet start of Kobe)
+        assert np.array_equal(a.num, b.num) and np.array_equal(a.xa_m, b.xa_m)
     # a frame whose joint-7 rotation yields with no hardening (ElasticPP at 5e-6 rad):
     # once the specimen's moment passes 38.5 N·m (at 3.69 s, measured) the massless rotation
     # has no stiffness and Newton fails
