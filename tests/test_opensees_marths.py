@@ -148,9 +148,10 @@ def build(ops):
 """
 
 
-def test_cli_runs_the_benchmark_with_the_opensees_frame(folder):
+def test_cli_runs_the_benchmark_with_the_opensees_frame(folder, tmp_path):
     """``rths3d benchmark marths --opensees MODEL``: the J-values of the OpenSees frame,
-    one JSON line; with perturbed trials: one line naming --trials, exit 2."""
+    one JSON line; with perturbed trials, or a model file with a syntax error: one line
+    naming the field, exit 2."""
     env = {**os.environ, "COLUMNS": "200"}
     base = [sys.executable, "-m", "rths3d", "benchmark", "marths", "--opensees", str(MODEL),
             "--t-end", "1.0", "--json"]
@@ -166,3 +167,11 @@ def test_cli_runs_the_benchmark_with_the_opensees_frame(folder):
     assert bad.returncode == 2
     lines = bad.stderr.strip().splitlines()
     assert len(lines) == 1 and "--trials" in lines[0], bad.stderr
+    broken = tmp_path / "broken.py"
+    broken.write_text("def build(ops)\n    pass\n")
+    bad = subprocess.run([*base[:5], str(broken), *base[6:]], capture_output=True, text=True,
+                         timeout=300, env=env)
+    assert bad.returncode == 2
+    lines = bad.stderr.strip().splitlines()
+    assert len(lines) == 1 and "opensees model" in lines[0] and "syntax error at line 1" \
+        in lines[0], bad.stderr
