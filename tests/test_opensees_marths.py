@@ -169,7 +169,7 @@ def test_cli_runs_the_benchmark_with_the_opensees_frame(folder, tmp_path):
     assert len(lines) == 1 and "--trials" in lines[0], bad.stderr
     broken = tmp_path / "broken.py"
     broken.write_text("def build(ops)\n    pass\n")
-    bad = subprocess.run([*base[:5], str(broken), *base[6:]], capture_output=True, text=True,
+    bad = subprocess.run([*base[:6], str(broken), *base[7:]], capture_output=True, text=True,
                          timeout=300, env=env)
     assert bad.returncode == 2
     lines = bad.stderr.strip().splitlines()
