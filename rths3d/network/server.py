@@ -399,8 +399,8 @@ class LabServer:
                 elif a in (simapp.OPEN, simapp.SETUP):
                     pass
                 else:
-                    raise PeerError("malformed", f"malformed message: action {msg[0]!r} is "
-                                    "not one of the protocol's")
+                    raise PeerError("malformed", f"action {float(msg[0])!r} is not one of "
+                                    "the protocol's")
                 if not lab.active:
                     break
                 if self._stop.is_set():
