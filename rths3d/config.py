@@ -302,7 +302,7 @@ class NetworkConfig:
     displacements of the element's, z = T u (rows: the scene's interface DOFs; columns:
     the element DOFs of the ``genericClient``, in its order); the forces go back as
     Tᵀ F'_m. Empty: the two-node element of one DOF per node and interface DOF,
-    T = [−I, I] (z the elongation of the element).
+    T = [−I, I] (z the elongation of the element). ``site``: see below.
     """
 
     host: str = "127.0.0.1"
@@ -310,6 +310,11 @@ class NetworkConfig:
     timeout: float = 0.1
     first_timeout: float = 30.0
     element_map: Matrix = ()
+    site: str = "lab"
+    """What the ``remote`` transfer system talks to: ``lab`` (``rths3d serve``, an
+    OpenFresco SimApp site server: trial, commit, getDaqResponse per step) or ``adapter``
+    (OpenSees' ``adapter`` element: trial, then getForce answered with the measured
+    displacement and force)."""
 
 
 @dataclass(frozen=True)

@@ -26,6 +26,7 @@ Public API: :func:`run` (one test), :func:`run_batch` (many parameter sets, K at
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import threading
@@ -208,7 +209,11 @@ class _Group:
         self._f = np.zeros((self.K, self.nd))  # F'_m held over the next step
         t0 = time.perf_counter()
         n = 0
-        with pbar:
+        # a transfer system holding a connection (the remote one) releases it however the
+        # loop ends: its last step, a stop, Ctrl-C or an error
+        close = getattr(self.transfer, "close", None)
+        with pbar, contextlib.closing(self.transfer) if close is not None \
+                else contextlib.nullcontext():
             while n < self.N:
                 # with a control: back to Python after every step n with n % every == 0
                 n1 = min(self.N, -(-n // every) * every + 1 if control is not None

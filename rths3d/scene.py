@@ -390,6 +390,7 @@ def _network(raw: Mapping[str, Any], n_if: int) -> NetworkConfig:
     net = _build(NetworkConfig, "network", sec, {
         "timeout": {"lo": 0.0, "lo_open": True, "hi": 3600.0, "unit": "s"},
         "first_timeout": {"lo": 0.0, "lo_open": True, "hi": 3600.0, "unit": "s"}})
+    _choice("network.site", net.site, ("lab", "adapter"))
     if not 0 <= net.port <= 65535:
         raise ConfigError("network.port", net.port, "must be in 0…65535 (0: any free port)")
     if emap is not None and len(emap):
