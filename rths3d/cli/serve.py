@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import sys
 from pathlib import Path
 
@@ -33,6 +34,10 @@ def serve(
     out: Path = typer.Option(None, "--out", "-o", help="Write the record (.parquet or .csv)."),
     json_: bool = typer.Option(False, "--json", help="Print one JSON object at the end "
                                                      "instead of a summary."),
+    rt_priority: int = typer.Option(0, "--rt-priority",
+                                    help="Serve under the real-time FIFO scheduler at this "
+                                         "priority (1-99; root or CAP_SYS_NICE): answers in "
+                                         "time on a loaded machine; 0: the normal scheduler."),
 ) -> None:
     """Serve SCENE's lab (transfer system + part) to one SimApp client — an OpenSees
     `genericClient` element, an OpenFresco SimApp client or `rths3d run` with transfer kind
@@ -56,6 +61,9 @@ def serve(
         raise ConfigError("--timeout", timeout, "must be > 0 s")
     if wait is not None and not wait > 0:
         raise ConfigError("--wait", wait, "must be > 0 s")
+    if not 0 <= rt_priority <= 99:
+        raise ConfigError("--rt-priority", rt_priority, "must be in 0..99 (0: the normal "
+                          "scheduler)")
     if out is not None:
         check_file(out, "--out", RECORD_SUFFIXES)
     sc = load_scene(scene, set_)
@@ -64,6 +72,15 @@ def serve(
     if sc.transfer.kind == "remote":
         raise ConfigError("transfer.kind", "remote", "a served lab needs a transfer system of "
                           "its own: pass --transfer")
+    from ..network.pacing import realtime_priority
+
+    prio = contextlib.ExitStack()
+    try:
+        prio.enter_context(realtime_priority(rt_priority))
+    except PermissionError as exc:
+        raise ConfigError("--rt-priority", rt_priority, f"the process may not use the "
+                          f"real-time scheduler ({exc.strerror}): run as root or with "
+                          f"CAP_SYS_NICE, or 0") from None
     server = LabServer(sc, host=host, port=port, timeout=timeout)
     if server.public:
         typer.echo(f"warning: listening on {server.host}, reachable from other machines: "
@@ -74,6 +91,7 @@ def serve(
         res = server.serve(accept_timeout=wait)
     finally:
         server.close()
+        prio.close()
     if out is not None:
         res.out = str(keeper.write(res.record.save, out, "--out"))
     summary = {"status": res.status, "reason": res.reason, "scene": sc.name,

@@ -132,10 +132,11 @@ class Channel:
         recv_bytes(self.sock, self._recv, self._nbytes, self.timeout, self._quick)
         return self.recv_buf
 
-    def send(self) -> None:
-        """Send ``send_buf``."""
+    def send(self, data: memoryview | None = None) -> None:
+        """Send ``send_buf`` (or ``data``: whole messages, e.g. a preallocated block of
+        several)."""
         try:
-            self.sock.sendall(self._send)
+            self.sock.sendall(self._send if data is None else data)
         except TimeoutError:
             raise PeerError("timeout", f"the peer took no data for {self.timeout:g} s") \
                 from None

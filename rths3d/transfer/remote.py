@@ -12,8 +12,8 @@ values are held, the reason goes to the record.
 Per step, in the ``lab`` dialect: setTrialResponse ``[3, z, ż]``, commitState ``[5]``
 (the site executes the step exactly once), getDaqResponse ``[6]`` → ``[z', F'_m]``; in the
 ``adapter`` dialect: ``[3, z, ż]``, getForce ``[10]`` → ``[z', F'_m]``. Header:
-sizeCtrl = (n, n, 0, 0, 0), sizeDaq = (n, 0, 0, n, 0), dataSize = 2n + 1 at least (256
-for a lab, what OpenFresco uses; 2n + 1 for an adapter, which allocates what it is told).
+sizeCtrl = (n, n, 0, 0, 0), sizeDaq = (n, 0, 0, n, 0), dataSize = max(2n + 1, n²) (24
+bytes a message for one DOF); a step's requests go out in one write.
 Steps from Python (no compiled kernel); the bench's physics is the site's.
 """
 
@@ -59,8 +59,13 @@ class RemoteTransfer:
                        "timeout": net.timeout, "predicted_delay": 0.0}]
         from ..network.simapp import Header
 
-        ds = 2 * n + 1 if net.site == "adapter" else max(256, 2 * n + 1)
+        ds = max(2 * n + 1, n * n)
         self.header = Header((n, n, 0, 0, 0), (n, 0, 0, n, 0), ds)
+        # a step's requests sent in one write: trial, commit, getDaqResponse (lab) or
+        # trial, getForce (adapter)
+        self._out = np.zeros((3 if net.site == "lab" else 2, ds))
+        self._out[1:, 0] = (5.0, 6.0) if net.site == "lab" else (10.0,)
+        self._out_bytes = memoryview(self._out).cast("B")
         self.chan: Any = None
         self.n = 0
         self._finalizer: Any = None
@@ -131,19 +136,12 @@ class RemoteTransfer:
         from ..network.simapp import PeerError
 
         n = self.n_if
-        buf = chan.send_buf
+        out = self._out
         try:
-            buf[0] = 3.0
-            buf[1:1 + n] = z[0]
-            buf[1 + n:1 + 2 * n] = zdot[0]
-            chan.send()
-            if self.site == "lab":
-                buf[0] = 5.0
-                chan.send()
-                buf[0] = 6.0
-            else:
-                buf[0] = 10.0
-            chan.send()
+            out[0, 0] = 3.0
+            out[0, 1:1 + n] = z[0]
+            out[0, 1 + n:1 + 2 * n] = zdot[0]
+            chan.send(self._out_bytes)
             r = chan.recv()
             if not (math.isfinite(r[0]) and np.all(np.isfinite(r[:2 * n]))):
                 raise PeerError("malformed", "the site answered a value that is not finite")
