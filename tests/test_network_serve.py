@@ -60,11 +60,13 @@ def write_scene(tmp_path: Path, transfer: str = "ideal", duration: float = 2.0,
     return p
 
 
-def newmark_linear(lab: Lab, steps: int) -> np.ndarray:
+def newmark_linear(lab: Lab, steps: int, m: float = M, k: float = K, a0: float = A0,
+                   f0: float = F0, f: float = F) -> np.ndarray:
     """OpenSees' Newmark (γ ½, β ¼) with the Linear algorithm on the SDOF of
     tests/opensees/sdof_client.py, its genericClient replaced by ``lab`` called as the
     element calls its server: a trial at the step's start (displacement unchanged, predicted
     velocity and acceleration), tangent, damping, force, the new trial, commit."""
+    M, K, A0, F0, F = m, k, a0, f0, f  # noqa: N806
     h = Header((2, 2, 2, 0, 1), (0, 0, 0, 2, 0), 256)
     g, b = 0.5, 0.25
     c2, c3 = g / (b * DT), 1.0 / (b * DT * DT)
