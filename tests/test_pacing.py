@@ -209,3 +209,29 @@ def test_paced_loopback_holds_1khz(tmp_path) -> None:
     assert st["latency_p99_s"] < 1e-3, (st, load)
     assert server.json["steps"] == 3000
     assert server.left() == [] and port_listeners(port) == []
+
+
+def test_overrun_stop_of_a_remote_test_ends_both_sides(tmp_path) -> None:
+    """A paced remote test against `rths3d serve` forced to overrun (10 µs slots, a loopback
+    round trip takes ~0.1 ms): `--max-overruns 3` stops it at the 3rd overrun, the record
+    keeps the steps done, the client sends DIE so the served test ends with the same steps;
+    both processes gone, nothing listening."""
+    sc = scene(tmp_path, 1.0)
+    server, port = serve(sc, "--json")
+    rec = tmp_path / "partial.parquet"
+    try:
+        res = rths3d("run", str(sc), "--transfer", "remote", "--set", f"network.port={port}",
+                     "--set", "dt=1e-5", "--set", "duration=0.01", "--realtime",
+                     "--max-overruns", "3", "--no-reference", "--json", "--out", str(rec))
+        code, err = server.finish(60)
+    finally:
+        server.kill()
+    assert res.returncode == 0, res.stderr
+    assert code == 0, err
+    s = json.loads(res.stdout.strip().splitlines()[-1])
+    assert s["status"] == "stopped" and "real time lost" in s["reason"], s
+    r = Record.load(rec)
+    assert r.meta["status"] == "stopped" and r.n == s["pacing"]["steps"] + 1
+    # the site executed every step the client sent (one per paced step, warm-up included)
+    assert server.json["steps"] == s["pacing"]["steps"], (server.json, s["pacing"])
+    assert server.left() == [] and port_listeners(port) == []
