@@ -23,6 +23,7 @@ __all__ = [
     "ExcitationConfig",
     "ExperimentConfig",
     "Matrix",
+    "NetworkConfig",
     "NumericalConfig",
     "PlatformDescription",
     "SafetyConfig",
@@ -319,6 +320,33 @@ SafetyConfig = SafetyLimits
 
 
 @dataclass(frozen=True)
+class NetworkConfig:
+    """The test over the network (``[network]``; docs/network.md).
+
+    ``host``/``port``: where ``rths3d serve`` listens (``host`` 127.0.0.1 unless opened on
+    purpose; ``port`` 0: any free port, printed) and where the ``remote`` transfer system
+    connects. ``timeout`` (s): longest silence of the peer within a test before it stops
+    safely; ``first_timeout`` (s): the wait for the peer's first message after it connects
+    (an OpenSees model still setting up its analysis). ``element_map``: the interface
+    displacements of the element's, z = T u (rows: the scene's interface DOFs; columns:
+    the element DOFs of the ``genericClient``, in its order); the forces go back as
+    Tᵀ F'_m. Empty: the two-node element of one DOF per node and interface DOF,
+    T = [−I, I] (z the elongation of the element). ``site``: see below.
+    """
+
+    host: str = "127.0.0.1"
+    port: int = 8090
+    timeout: float = 0.1
+    first_timeout: float = 30.0
+    element_map: Matrix = ()
+    site: str = "lab"
+    """What the ``remote`` transfer system talks to: ``lab`` (``rths3d serve``, an
+    OpenFresco SimApp site server: trial, commit, getDaqResponse per step) or ``adapter``
+    (OpenSees' ``adapter`` element: trial, then getForce answered with the measured
+    displacement and force)."""
+
+
+@dataclass(frozen=True)
 class EffectConfig:
     """One physical effect of the bench, declared in a scene's ``[[effect]]`` table.
 
@@ -368,6 +396,9 @@ class Scene:
     """The platform (``[platform]``): today's bench unless the scene says otherwise."""
     controller: ControllerConfig = field(default_factory=ControllerConfig)
     """The leg controller's conventions (``[controller]``)."""
+    network: NetworkConfig = field(default_factory=NetworkConfig)
+    """The test over the network (``[network]``): ``rths3d serve`` and the ``remote``
+    transfer system."""
 
     @property
     def n_steps(self) -> int:

@@ -33,6 +33,7 @@ from .config import (
     ExcitationConfig,
     ExperimentConfig,
     Matrix,
+    NetworkConfig,
     NumericalConfig,
     SafetyConfig,
     SafetyLimits,
@@ -248,7 +249,7 @@ def _build_section(cls: type, name: str, sec: Mapping[str, Any],
 def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str = "") -> Scene:
     """Validate a raw (TOML-shaped) mapping and build a :class:`Scene`."""
     top = {"name", "dofs", "dt", "duration", "numerical", "experiment", "excitation",
-           "transfer", "sensor", "safety", "effect", "platform", "controller"}
+           "transfer", "sensor", "safety", "effect", "platform", "controller", "network"}
     for key in raw:
         if key not in top:
             raise ConfigError(key, raw[key], f"unknown field (known: {', '.join(sorted(top))})")
@@ -385,7 +386,32 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
     effects = _effects(raw.get("effect", []))
     return Scene(name=sname, dofs=dofs, numerical=num, experiment=exp, excitation=exc,
                  transfer=tr, sensor=sen, safety=saf, dt=dt, duration=duration, source=source,
-                 effects=effects, platform=platform, controller=controller)
+                 effects=effects, platform=platform, controller=controller,
+                 network=_network(raw, len(dofs)))
+
+
+def _network(raw: Mapping[str, Any], n_if: int) -> NetworkConfig:
+    """The ``[network]`` table (docs/network.md), checked."""
+    sec = _section(raw, "network", NetworkConfig)
+    emap = sec.pop("element_map", ())
+    if not isinstance(sec.get("host", ""), str) or not sec.get("host", "x"):
+        raise ConfigError("network.host", sec.get("host"), "must be a host name or address")
+    net = _build(NetworkConfig, "network", sec, {
+        "timeout": {"lo": 0.0, "lo_open": True, "hi": 3600.0, "unit": "s"},
+        "first_timeout": {"lo": 0.0, "lo_open": True, "hi": 3600.0, "unit": "s"}})
+    _choice("network.site", net.site, ("lab", "adapter"))
+    if not 0 <= net.port <= 65535:
+        raise ConfigError("network.port", net.port, "must be in 0…65535 (0: any free port)")
+    if emap is not None and len(emap):
+        m = _matrix("network.element_map", emap)
+        if len(m) != n_if:
+            raise ConfigError("network.element_map", emap, f"needs {n_if} rows (one per "
+                              f"interface DOF), has {len(m)}")
+        if len(m[0]) > 64 or not np.any(np.asarray(m)):
+            raise ConfigError("network.element_map", emap, "must have 1…64 columns and a "
+                              "non-zero entry")
+        net = replace(net, element_map=m)
+    return net
 
 
 
@@ -587,6 +613,11 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
                     if not (sec == "experiment" and k in EXPERIMENT_EXTRA and not v)}
     if "inertia_tensor" in out["experiment"]:
         out["experiment"]["inertia"] = out["experiment"].pop("inertia_tensor")
+    net = {k: (list(map(list, v)) if k == "element_map" else v)
+           for k, v in asdict(scene.network).items()
+           if v != getattr(NetworkConfig(), k)}
+    if net:
+        out["network"] = net
     for sec, tab in (("platform", platform_dict(scene.platform)),
                      ("controller", controller_dict(scene.controller))):
         if tab:
@@ -688,7 +719,7 @@ def scene_to_toml(scene: Scene) -> str:
     for key in ("name", "dofs", "dt", "duration"):
         lines.append(f"{key} = {_toml_value(d[key])}")
     for sec in ("numerical", "excitation", "experiment", "transfer", "sensor", "safety",
-                "platform", "controller"):
+                "platform", "controller", "network"):
         if sec not in d:
             continue
         lines += ["", f"[{sec}]"]

@@ -17,6 +17,7 @@ from . import (  # noqa: F401  (modules register their commands on import)
     metrics,
     platform,
     run,
+    serve,
     sweep,
     train,
     view,

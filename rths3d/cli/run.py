@@ -129,7 +129,17 @@ def run(
                                                      "summary."),
     no_reference: bool = typer.Option(False, "--no-reference",
                                       help="Skip the reference solution z^r."),
-    realtime: bool = typer.Option(False, "--realtime", help="Pace the loop to wall time."),
+    realtime: bool = typer.Option(False, "--realtime", help="Pace every step on the wall "
+                                                            "clock (1 kHz at dt = 1 ms); "
+                                                            "jitter, latency and overruns "
+                                                            "in the record's meta."),
+    max_overruns: int = typer.Option(0, "--max-overruns",
+                                     help="With --realtime: stop the test safely at the N-th "
+                                          "step that overran its slot (0: count only)."),
+    rt_priority: int = typer.Option(0, "--rt-priority",
+                                    help="With --realtime: run the paced loop under the "
+                                         "real-time FIFO scheduler at this priority (1-99; "
+                                         "root or CAP_SYS_NICE); 0: the normal scheduler."),
 ) -> None:
     """Run one vRTHS test of SCENE and print its accuracy measures."""
     from ..errors import ConfigError
@@ -151,10 +161,27 @@ def run(
     # Ctrl-C stops the test like the bench's stop button: the partial record is kept (and
     # written with --out); a second Ctrl-C interrupts as usual. Without pacing, checked
     # every 200 steps (0.2 s of a 1 kHz test), which costs the loop < 1 %
-    control = LoopControl(realtime=realtime, every=20 if realtime else 200)
+    if max_overruns < 0:
+        raise ConfigError("--max-overruns", max_overruns, "must be >= 0 (0: count only)")
+    if not 0 <= rt_priority <= 99:
+        raise ConfigError("--rt-priority", rt_priority, "must be in 0..99 (0: the normal "
+                          "scheduler)")
+    pacer = None
+    if realtime:
+        from ..network.pacing import Pacer
+
+        pacer = Pacer(sc.dt, sc.n_steps, max_overruns=max_overruns, priority=rt_priority)
+    control = LoopControl(realtime=realtime, every=200, pacer=pacer)
     with _stop_on_sigint(control):
-        res = run_loop(sc, transfer, reference=not no_reference, control=control,
-                       progress=not json_)
+        try:
+            res = run_loop(sc, transfer, reference=not no_reference, control=control,
+                           progress=not json_)
+        except PermissionError as exc:  # the real-time scheduler refused, before step 0
+            if not rt_priority:
+                raise
+            raise ConfigError("--rt-priority", rt_priority, f"the process may not use the "
+                              f"real-time scheduler ({exc.strerror}): run as root or with "
+                              f"CAP_SYS_NICE, or 0") from None
     if out is not None:
         # a record the target refuses now is kept in a temporary folder (the error says where)
         res.out = str(keeper.write(res.record.save, out, "--out"))
@@ -194,7 +221,13 @@ def run(
         "omega_num_max": res.record.meta.get("omega_num_max"),
         "omega_dyn_max": res.record.meta.get("omega_dyn_max"),
         "fidelity": res.record.meta.get("fidelity"),
+        "pacing": res.record.meta.get("pacing"),
     }
+    pac = summary["pacing"]
+    if pac and pac["overruns"]:  # the count-only policy's warning (stderr, with --json too)
+        typer.echo(f"warning: {pac['overruns']} steps overran their "
+                   f"{1e3 / pac['rate_hz']:g} ms slot (first at step "
+                   f"{pac['first_overrun']})", err=True)
     if json_:
         typer.echo(json_line(summary))
         keeper.finish()
@@ -217,6 +250,12 @@ def run(
             typer.echo(f"  fidelity     : from t = {fid['unreliable']['t']:.3f} s "
                        f"{fid['unreliable']['reason']}")
     typer.echo(f"  RTF          = {res.rtf:.1f} (simulated s per wall s)")
+    if pac:
+        typer.echo(f"  paced        : {pac['rate_hz']:g} Hz, jitter p99 "
+                   f"{pac['jitter_p99_s'] * 1e6:.0f} µs (max {pac['jitter_max_s'] * 1e6:.0f}),"
+                   f" step latency mean {pac['latency_mean_s'] * 1e6:.0f} µs (p99 "
+                   f"{pac['latency_p99_s'] * 1e6:.0f}), overruns {pac['overruns']} of "
+                   f"{pac['steps']}")
     if res.out:
         typer.echo(f"  record       → {res.out}")
     if plot_path:

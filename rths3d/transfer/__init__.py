@@ -29,6 +29,7 @@ from .compensator import Compensator
 from .delay import DelayTransfer
 from .ideal import IdealTransfer
 from .lti import LTITransfer
+from .remote import RemoteTransfer
 from .stewart import StewartTransfer
 
 __all__ = [
@@ -44,6 +45,7 @@ __all__ = [
     "PerTestDelayLine",
     "PerTestLTIActuator",
     "RecordSignal",
+    "RemoteTransfer",
     "SensorModel",
     "StewartTransfer",
     "TransferSystem",
