@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import os
+import subprocess
 import sys
 import tempfile
 import traceback
@@ -31,6 +32,11 @@ def _run(argv: list[str], cwd: str) -> dict:
     sys.stderr.flush()
     os.dup2(out.fileno(), 1)
     os.dup2(err.fileno(), 2)
+    # Python's own streams onto those descriptors too (under pytest they are its capture
+    # objects, not descriptors 1 and 2)
+    streams = sys.stdout, sys.stderr
+    sys.stdout = open(1, "w", encoding="utf-8", closefd=False)  # noqa: SIM115
+    sys.stderr = open(2, "w", encoding="utf-8", closefd=False)  # noqa: SIM115
     code = 0
     try:
         os.chdir(cwd)
@@ -46,6 +52,7 @@ def _run(argv: list[str], cwd: str) -> dict:
     finally:
         sys.stdout.flush()
         sys.stderr.flush()
+        sys.stdout, sys.stderr = streams
         os.dup2(saved[0], 1)
         os.dup2(saved[1], 2)
         os.close(saved[0])
@@ -57,6 +64,14 @@ def _run(argv: list[str], cwd: str) -> dict:
         texts.append(f.read().decode("utf-8", "replace"))
         f.close()
     return {"code": code, "stdout": texts[0], "stderr": texts[1]}
+
+
+def run_in_process(*argv: str, cwd: str | None = None) -> subprocess.CompletedProcess:
+    """``rths3d ARGV`` in this process, as ``python -m rths3d`` runs it: the exit code and
+    what it wrote to file descriptors 1 and 2. For tests that run the same command line many
+    times (a fresh interpreter spends ≈ 2–3 s importing torch and the package per call)."""
+    res = _run(list(argv), cwd or os.getcwd())
+    return subprocess.CompletedProcess(list(argv), res["code"], res["stdout"], res["stderr"])
 
 
 def main() -> None:

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 
 import numpy as np
 import pandas as pd
 import pytest
+from cli_cases import run_in_process
 
 from rths3d.dataset.table import FEATURE_SETS
 
@@ -31,8 +31,9 @@ def table(tmp_path_factory):
 
 
 def run(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "rths3d", *args], capture_output=True,
-                          text=True, timeout=300)
+    """``rths3d ARGS`` in this process (as ``python -m rths3d`` runs it; the command line's
+    own process is exercised by tests/test_cli_help.py and the bad-input table)."""
+    return run_in_process(*args)
 
 
 @pytest.fixture(scope="module")

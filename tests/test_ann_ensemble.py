@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 
 import numpy as np
 import pandas as pd
 import pytest
 import torch
+from cli_cases import run_in_process
 
 from rths3d.ann import FidelityANN, pearson_rho
 from rths3d.ann.estimator import combine_members
@@ -94,8 +94,7 @@ def test_score_report_per_family_and_in_range(fitted) -> None:
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "rths3d", *args], capture_output=True,
-                          text=True, timeout=300)
+    return run_in_process(*args)  # as python -m rths3d runs it, in this process
 
 
 def test_predict_json_reports_per_family_and_by_column(tmp_path) -> None:

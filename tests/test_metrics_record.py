@@ -5,10 +5,10 @@ from __future__ import annotations
 import json
 import math
 import subprocess
-import sys
 
 import numpy as np
 import pytest
+from cli_cases import run_in_process
 
 from rths3d.errors import ConfigError
 from rths3d.metrics import FEATURE_SETS, compute_measures, e_rel_track, feature_row, fei
@@ -151,8 +151,7 @@ def test_eei_from_record_states():
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "rths3d", "metrics", *args],
-                          capture_output=True, text=True, timeout=120)
+    return run_in_process("metrics", *args)  # as python -m rths3d runs it, in this process
 
 
 def test_cli_json_bare_csv_and_plots(tmp_path, sdof):

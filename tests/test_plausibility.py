@@ -4,17 +4,16 @@ the diagnosis. Records in other units are made from a real run by transforms wri
 from __future__ import annotations
 
 import subprocess
-import sys
 
 import pytest
+from cli_cases import run_in_process
 
 from rths3d.plausibility import MAX_DT, TRANSLATION_LIMIT, implausible
 from rths3d.record import Record
 
 
 def cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "rths3d", *args], capture_output=True,
-                          text=True, timeout=300)
+    return run_in_process(*args)  # as python -m rths3d runs it, in this process
 
 
 @pytest.fixture(scope="module")

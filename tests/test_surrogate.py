@@ -11,11 +11,11 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_cases import run_in_process
 
 from rths3d.experiment.specimen import Specimen1D
 from rths3d.loop import run, scene_with
@@ -193,8 +193,7 @@ def test_metrics_reports_the_estimate(contact_record) -> None:
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "rths3d", *args], capture_output=True,
-                          text=True, timeout=300)
+    return run_in_process(*args)  # as python -m rths3d runs it, in this process
 
 
 def test_cli_metrics_estimate_and_plot(contact_record, tmp_path) -> None:

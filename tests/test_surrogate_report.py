@@ -8,11 +8,11 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 
 import numpy as np
 import pandas as pd
 import pytest
+from cli_cases import run_in_process
 
 from rths3d.cli.train import surrogate_scores
 
@@ -53,8 +53,7 @@ def test_surrogate_scores_know_the_answer() -> None:
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "rths3d", *args], capture_output=True,
-                          text=True, timeout=600)
+    return run_in_process(*args)  # as python -m rths3d runs it, in this process
 
 
 def test_predict_json_reports_the_surrogate(tmp_path) -> None:
