@@ -40,6 +40,7 @@ def _same(a, b) -> None:
         assert err <= 1e-12 * peak or err == 0.0, (c, err, peak)
 
 
+@pytest.mark.slow  # the Python path of a whole Stewart test
 def test_single_test_compiled_equals_python(monkeypatch):
     sc = load_scene(SCENE, ["duration=0.3", "transfer.kind='stewart'",
                             "transfer.compensation='polynomial'", "transfer.comp_time=0.004"])

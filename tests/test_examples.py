@@ -76,6 +76,7 @@ def _two_family_table(path: Path) -> Path:
     return path
 
 
+@pytest.mark.slow  # an end-to-end figure: a sweep and five trainings
 def test_leave_one_family_out_scores_each_family(tmp_path):
     """44 leaves each family out in turn, scores it on all its tests and writes the table,
     the JSON summary and a plot per family; an unknown family is one error line."""
@@ -94,6 +95,7 @@ def test_leave_one_family_out_scores_each_family(tmp_path):
     assert bad.returncode == 2 and bad.stderr.startswith("error: --families: 'c'"), bad.stderr
 
 
+@pytest.mark.slow  # an end-to-end figure: a sweep and a forward selection
 def test_feature_probe_forward_selection_picks_the_features_the_target_depends_on(tmp_path):
     """43 --forward 2 on a target of e_rel_track and fei_d (the rest noise) picks those two,
     e_rel_track first (it carries more of the variance)."""

@@ -27,6 +27,8 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+pytestmark = pytest.mark.slow  # every case replays a whole foreign record (10–70 s each)
+
 from foreign_bench import (  # noqa: E402
     DOFS,
     LAST_RUN,

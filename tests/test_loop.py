@@ -59,6 +59,7 @@ def test_pure_delay_error_grows_monotonically(contact3):
     assert e_rel(ideal, zr) < 0.15 * errs[2], (e_rel(ideal, zr), errs)
 
 
+@pytest.mark.slow  # a Stewart test per delay
 def test_stewart_error_matches_its_delay():
     """Stewart platform: its tracking delay is of the size its actuators predict, and its
     e_rel,ref is of the size a pure delay of that size (plus the one-step-stale force

@@ -118,6 +118,7 @@ def scores(truth: list[float], est: list[dict]) -> dict[str, float]:
             "spread": float(truth.max() / truth.min())}
 
 
+@pytest.mark.slow  # a family of tests identified one by one
 @pytest.mark.parametrize("family, n, seed", [("contact", 10, 3), ("contact_force", 10, 5),
                                              ("chain", 14, 7)])
 def test_never_seen_contact_family(family: str, n: int, seed: int) -> None:

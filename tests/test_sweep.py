@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from cli_cases import run_in_process
 
 from rths3d.dataset import load_spec, run_sweep
 
@@ -129,6 +130,7 @@ def test_rerun_skips_finished_work(tiny_spec, tmp_path) -> None:
     pd.testing.assert_frame_equal(a, b)
 
 
+@pytest.mark.slow  # two whole sweeps
 def test_two_workers_equal_one_worker(tiny_spec, reference_table, tmp_path) -> None:
     """The process-pool run (2 workers) gives exactly the in-process table (deterministic):
     workers started from a forkserver here (a test process has threads), and forked from a
@@ -320,8 +322,7 @@ def test_predict_on_a_kept_record_matches_table_row(tiny_spec, reference_table, 
     tid = rows["test_id"].iloc[0]
     rec = tmp_path / "out" / "records" / f"{tid}.parquet"
     assert rec.is_file()
-    p = subprocess.run([sys.executable, "-m", "rths3d", "predict", str(tmp_path / "m.json"),
-                        str(rec), "--json"], capture_output=True, text=True, timeout=300)
+    p = run_in_process("predict", str(tmp_path / "m.json"), str(rec), "--json")
     assert p.returncode == 0, p.stderr
     got = json.loads(p.stdout)["prediction"][0]
     assert got == pytest.approx(float(model.predict(X.iloc[:1], warn=False)[0]), rel=1e-9)
@@ -526,9 +527,7 @@ def test_cli_sweep_whose_every_test_is_refused_is_one_error_line(tmp_path) -> No
     p = tmp_path / "refused.toml"
     p.write_text(TINY.replace('"numerical.m" = [4.81, 9.62]', '"numerical.m" = [-4.81, -9.62]'))
     out = tmp_path / "out"
-    r = subprocess.run([sys.executable, "-m", "rths3d", "sweep", str(p), "--out", str(out),
-                        "--workers", "1", "--quiet"], capture_output=True, text=True,
-                       timeout=300)
+    r = run_in_process("sweep", str(p), "--out", str(out), "--workers", "1", "--quiet")
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert r.stderr.strip().splitlines() == [r.stderr.strip()]
     assert r.stderr.startswith("error: sweep: 'tiny' (all 8 tests refused; first reason: ")

@@ -345,6 +345,7 @@ def _uplot_uuid(msgs: list[dict], title_start: str) -> str:
     raise AssertionError(f"no uPlot panel titled {title_start!r}")
 
 
+@pytest.mark.slow  # a live test watched to its end
 def test_headless_client_sees_scene_and_plot_updates_while_test_runs():
     """While the real loop runs the paper's contact test on the Stewart platform (paced at
     real time) and the view serves it from its own process, a websocket client (subprotocol
