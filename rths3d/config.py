@@ -170,6 +170,10 @@ SAMPLE = ("end", "start")
 """Sampling instants of the bench's channels within an interface step."""
 FEEDFORWARD = ("backward", "central", "none")
 """Difference forms of the velocity feed-forward."""
+LAG = ("setpoint", "servo")
+"""Where the leg servo's first-order lag (``timeconst``) sits: a digital filter of the
+set-point at the interface rate before the hold (``setpoint``, today's bench), or continuous
+dynamics of the servo after the hold, integrated with the physics (``servo``)."""
 GRAVITY = ("nominal", "measured", "none")
 """Sources of the gravity compensation: the nominal model, the bench's own holding forces at
 rest (measured), or none."""
@@ -184,7 +188,10 @@ class ControllerConfig:
     its channels, at the ``end`` of the interface step (today's) or at its ``start``;
     ``feedforward``: the velocity feed-forward's difference form, ``backward`` (today's),
     ``central`` or ``none``; ``gravity``: gravity compensation from the ``nominal`` model
-    (today's), from the holding forces ``measured`` on the bench at rest, or ``none``. The
+    (today's), from the holding forces ``measured`` on the bench at rest, or ``none``;
+    ``lag``: where the servo's first-order lag ``timeconst`` sits (:data:`LAG`): a digital
+    filter of the set-point before the hold (``setpoint``, today's) or continuous dynamics
+    after it (``servo``, a valve or amplifier; integrated with the physics). The
     servo's gains, lag and transport delay (``kp``, ``kv``, ``timeconst``, ``delay`` of
     ``[controller]``) are kept in :class:`TransferConfig`
     (``transfer.kp`` …), where every consumer reads them. ``given``: the keys the scene's
@@ -195,6 +202,7 @@ class ControllerConfig:
     sample: str = "end"
     feedforward: str = "backward"
     gravity: str = "nominal"
+    lag: str = "setpoint"
     given: tuple[str, ...] = ()
 
 

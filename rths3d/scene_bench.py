@@ -18,7 +18,15 @@ from typing import Any
 
 import numpy as np
 
-from .config import FEEDFORWARD, GRAVITY, HOLD, SAMPLE, ControllerConfig, PlatformDescription
+from .config import (
+    FEEDFORWARD,
+    GRAVITY,
+    HOLD,
+    LAG,
+    SAMPLE,
+    ControllerConfig,
+    PlatformDescription,
+)
 from .errors import ConfigError
 from .platform.calibration import CalibratedGeometry, load_geometry
 from .platform.geometry import DEFAULT_GEOMETRY, StewartGeometry
@@ -34,7 +42,7 @@ SCALARS = tuple(f.name for f in dataclasses.fields(StewartGeometry))
 """Every StewartGeometry field (m, rad, kg, N, m/s)."""
 PLATFORM_KEYS = (*SCALARS, "base_anchors", "top_anchors", "geometry_file", "fts_pose")
 CONTROLLER_KEYS = ("kp", "kv", "timeconst", "delay", "hold", "sample", "feedforward",
-                   "gravity")
+                   "gravity", "lag")
 _SHARED = ("kp", "kv", "timeconst", "delay")
 """[controller] keys that today's [transfer] table also has."""
 _RANGES = {"kp": (0.0, 1e9, "N/m"), "kv": (0.0, 1e7, "N·s/m"), "timeconst": (0.0, 1.0, "s"),
@@ -206,7 +214,7 @@ def controller_table(sec: Any, transfer: dict[str, Any]) -> ControllerConfig:
         transfer[key] = v
     kw: dict[str, str] = {}
     for key, allowed in (("hold", HOLD), ("sample", SAMPLE), ("feedforward", FEEDFORWARD),
-                         ("gravity", GRAVITY)):
+                         ("gravity", GRAVITY), ("lag", LAG)):
         if key in sec:
             v = sec[key]
             if v not in allowed:
@@ -313,7 +321,9 @@ def bench_scene_text(name: str, *, dofs: tuple[str, ...] = ("x", "y", "z", "rx",
     L += [f"{k} = {_toml(v)}" for k, v in (platform or {}).items()]
     L += ["", "# the leg controller: servo gains N/m and N·s/m, lag and delay s; conventions",
           "# hold ramp|zoh, sample end|start, feedforward backward|central|none, gravity "
-          "nominal|measured|none",
+          "nominal|measured|none,",
+          "# lag setpoint|servo (the timeconst lag: a set-point filter before the hold, or the",
+          "# servo's continuous dynamics after it)",
           "[controller]"]
     L += [f"{k} = {_toml(v)}" for k, v in (controller or {}).items()]
     L += ["", "[transfer]", 'kind = "stewart"', ""]
@@ -339,7 +349,7 @@ def bench_origin(scene: Any, source: str) -> list[str]:
     rest = [k for k in p.given if k not in (*PATTERN, "home_height", "base_anchors",
                                              "top_anchors", "geometry_file")]
     conv = ", ".join(f"{k} = {getattr(c, k)}" for k in ("hold", "sample", "feedforward",
-                                                         "gravity"))
+                                                         "gravity", "lag"))
     t = scene.transfer
     ctl_given = [k for k in c.given]
     part = scene.experiment

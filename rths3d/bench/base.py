@@ -55,7 +55,7 @@ def platform_config(scene: Scene, substeps: int | None = None) -> PlatformConfig
                          gravity_comp=c.gravity != "none",
                          gravity_source="measured" if c.gravity == "measured" else "nominal",
                          hold=c.hold, sample=c.sample,
-                         feedforward=c.feedforward)
+                         feedforward=c.feedforward, lag=c.lag)
     return PlatformConfig(geometry=p.geometry if p.geometry is not None else DEFAULT_GEOMETRY,
                           actuator=act, dt=scene.dt,
                           substeps=t.substeps if substeps is None else substeps,

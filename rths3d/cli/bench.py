@@ -64,13 +64,17 @@ def init(
                                             "x,y,z,rx,ry,rz (m, rad)."),
     kp: float = typer.Option(None, help="Leg servo position gain (N/m)."),
     kv: float = typer.Option(None, help="Leg servo velocity gain (N·s/m)."),
-    timeconst: float = typer.Option(None, help="Set-point lag time constant (s)."),
+    timeconst: float = typer.Option(None, help="Servo lag time constant (s), where --lag "
+                                               "says."),
     delay: float = typer.Option(None, help="Set-point transport delay (s)."),
     hold: str = typer.Option(None, help="Set-point hold over a step: ramp | zoh."),
     sample: str = typer.Option(None, help="When channels are sampled: end | start."),
     feedforward: str = typer.Option(None, help="Velocity feed-forward: backward | central "
                                                "| none."),
     gravity: str = typer.Option(None, help="Gravity compensation: nominal | measured | none."),
+    lag: str = typer.Option(None, help="Where the timeconst lag sits: setpoint (a digital "
+                                       "filter before the hold) | servo (continuous, after "
+                                       "the hold)."),
     mass: float = typer.Option(None, help="Rigid payload mass (kg; default 1)."),
     com: str = typer.Option(None, help="Payload centre of mass x,y,z from the FTS origin, "
                                        "sensor frame (m)."),
@@ -116,7 +120,8 @@ def init(
         plat["fts_pose"] = pose
     ctl = {k: v for k, v in (("kp", kp), ("kv", kv), ("timeconst", timeconst),
                              ("delay", delay), ("hold", hold), ("sample", sample),
-                             ("feedforward", feedforward), ("gravity", gravity))
+                             ("feedforward", feedforward), ("gravity", gravity),
+                             ("lag", lag))
            if v is not None}
     dof_list = tuple(d.strip() for d in dofs.split(",") if d.strip())
     if part_file is not None:

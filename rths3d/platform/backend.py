@@ -49,6 +49,10 @@ class _Ids:
         self.slide_dof = np.array([model.jnt_dofadr[model.joint(f"leg{i}_slide").id]
                                    for i in range(6)])
         self.act = np.array([model.actuator(f"leg{i}").id for i in range(6)])
+        names = {model.actuator(j).name for j in range(model.nu)}
+        self.lag_act = np.array([model.actuator(f"leg{i}_lag").id for i in range(6)
+                                 if f"leg{i}_lag" in names], dtype=np.int64)
+        """The servo-lag actuators (``lag = "servo"``), empty without."""
         free = model.joint("plate_free").id
         self.plate_qpos = int(model.jnt_qposadr[free])
         self.plate_dof = int(model.jnt_dofadr[free])

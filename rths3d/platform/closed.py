@@ -178,7 +178,7 @@ def closed_range(n0, n1, w0, k0, num, mon, rec, comp, io, sens, znz, hist, plat)
     geo, ctl, chain, mj, live, fts, smp, rd = plat
     b, p, hh, home, half, vdt, vmax, fmax = geo
     (ffg, ffn, Lprev, L, Lsave, sp, y, off, bias, cprev, cnew, zoh, inv_dt, a0, s0, ahead,
-     Lnext) = ctl
+     Lnext, lag) = ctl
     fs, ps, ss, w, empty = chain
     ctrl, act, qlive, legs_q, legs_v, legs_f, legf_sens, fquat, Rlive = live
     start, any_start, tq, tlq, tlf, tR, qm, lqm, lfm, Rm = smp
@@ -228,9 +228,11 @@ def closed_range(n0, n1, w0, k0, num, mon, rec, comp, io, sens, znz, hist, plat)
                 any_run = True
         if any_run:
             if empty:
-                ramp_ctrl(sp, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0)
+                ramp_ctrl(sp, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0,
+                         lag)
             else:
-                ramp_ctrl(y, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0)
+                ramp_ctrl(y, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0,
+                         lag)
             if warm >= 0 and n > n0:
                 physics_warm(run, mj, cnew, act, s0, cprev, warm, ctrl, zoh, rate_only)
             else:
@@ -349,8 +351,10 @@ class ClosedRange:
             m.opt.enableflags & int(mujoco.mjtEnableBit.mjENBL_FWDINV)) else -1
         # an integrator-dynamics servo's force depends on its activation only: a ramped step's
         # control (the set-point rate) leaves the end-of-step evaluation valid but its act_dot
-        rate_only = bool(m.nu) and bool(np.all(
-            m.actuator_dyntype == int(mujoco.mjtDyn.mjDYN_INTEGRATOR))) and not bool(
+        # (a servo lag's filter likewise: its force is its activation's)
+        rate_only = bool(m.nu) and bool(np.all(np.isin(
+            m.actuator_dyntype, (int(mujoco.mjtDyn.mjDYN_INTEGRATOR),
+                                 int(mujoco.mjtDyn.mjDYN_FILTER))))) and not bool(
             np.any(m.actuator_actearly))
         mj = (*mt, sim._run, warm, rate_only)
         return (geo, ctl, chain, mj, live, fts, smp, (sim._pre, sim.rest_pose))

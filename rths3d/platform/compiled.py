@@ -201,7 +201,7 @@ def run_range(n0, n1, k0, P, Pn, run, geo, ctl, chain, mj, live, fts, smp, rec):
     (the driver freezes those tests)."""
     b, p, hh, home, half, vdt, vmax, fmax = geo
     (ffg, ffn, Lprev, L, Lsave, sp, y, off, bias, cprev, cnew, zoh, inv_dt, a0, s0, ahead,
-     Lnext) = ctl
+     Lnext, lag) = ctl
     fs, ps, ss, w, empty = chain
     ctrl, act, qlive, legs_q, legs_v, legs_f, legf_sens, fquat, Rlive = live
     # sample buffers a start-sampling test writes (writable), and the measured channels
@@ -229,10 +229,12 @@ def run_range(n0, n1, k0, P, Pn, run, geo, ctl, chain, mj, live, fts, smp, rec):
                     Lprev[k, i] = Lsave[k, i]
             return n - n0, 1
         if empty:
-            ramp_ctrl(sp, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0)
+            ramp_ctrl(sp, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0,
+                         lag)
         else:
             run_chain(fs, ps, ss, spr, yr, w)
-            ramp_ctrl(y, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0)
+            ramp_ctrl(y, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0,
+                         lag)
         physics(run, mj, cnew, act, s0, cprev)
         row = n + 1
         if not lazy:  # every channel at t_{k+1} from one state

@@ -179,24 +179,39 @@ def interface_command(u, idx, poses):
 
 
 @njit
-def ramp_ctrl(y, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0):
+def ramp_ctrl(y, off, bias, cprev, cnew, ctrl, a0, inv_dt, run, zoh, act, s0, lag):
     """Set-points of K platforms for the end of the step, ``cnew = y + off + bias`` (block
     output, gravity compensation, encoder bias), and the set-point rate ``(cnew − cprev)/ΔT``
     written to ``ctrl[k, a0 + i]`` (the servo integrates it: a linear ramp over the step);
     a zero-order hold (``zoh[k]``) instead sets the servo's set-point (activation
-    ``act[k, s0 + i]``) to ``cnew`` now and holds it (rate 0); stopped tests hold (rate 0)."""
+    ``act[k, s0 + i]``) to ``cnew`` now and holds it (rate 0); stopped tests hold (rate 0).
+
+    ``lag = (a1, s1, itau)``: the servo's continuous lag after the hold
+    (:mod:`rths3d.platform.model`, actuators ``leg{i}_lag`` from ``a1``, activations from
+    ``s1``; ``a1 < 0``: none), ``itau[k]`` 1/τ (1/s). Its filter takes the same set-point
+    rate; at a held set-point's jump its activation jumps by Δc/τ, so that the lagged
+    set-point ``act − τ·f`` stays continuous."""
+    a1, s1, itau = lag
     for k in range(y.shape[0]):
         for i in range(6):
             if run[k]:
                 c = y[k, i] + off[k, i] + bias[k, i]
-                cnew[k, i] = c
                 if zoh[k]:
+                    if a1 >= 0:
+                        act[k, s1 + i] += (c - cprev[k, i]) * itau[k]
+                        ctrl[k, a1 + i] = 0.0
                     act[k, s0 + i] = c
                     ctrl[k, a0 + i] = 0.0
                 else:
-                    ctrl[k, a0 + i] = (c - cprev[k, i]) * inv_dt
+                    r = (c - cprev[k, i]) * inv_dt
+                    ctrl[k, a0 + i] = r
+                    if a1 >= 0:
+                        ctrl[k, a1 + i] = r
+                cnew[k, i] = c
             else:
                 ctrl[k, a0 + i] = 0.0
+                if a1 >= 0:
+                    ctrl[k, a1 + i] = 0.0
 
 
 @njit

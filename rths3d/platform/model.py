@@ -21,6 +21,12 @@ Structure (stable names for consumers):
 * ``leg{i}``: position servos on the slide joints: force ``kp·(act − s) − kv·ṡ`` with the
   piston extension ``s`` and the set-point ``act`` (m), an activation integrated from the
   control (the set-point rate, m/s), so that the set-point ramps between interface samples.
+* ``leg{i}_lag`` (only with ``lag = "servo"`` and ``timeconst`` τ > 0): the servo's
+  continuous first-order lag after the hold. The lagged set-point x (ẋ = (r − x)/τ of the
+  held set-point r = ``act``) is ``x = r − τ·f`` with ``f`` a filter activation of the
+  same control (ḟ = (ṙ − f)/τ), so this actuator adds the force ``−kp·τ·f`` on the same
+  slide: ``kp·(x − s) − kv·ṡ`` in total, integrated with the physics. The leg-force sensors
+  ``leg{i}_force`` then read the total actuator force on the slide.
 """
 
 from __future__ import annotations
@@ -31,7 +37,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..config import FEEDFORWARD, HOLD, SAMPLE
+from ..config import FEEDFORWARD, HOLD, LAG, SAMPLE
 from ..errors import ConfigError
 from .geometry import DEFAULT_GEOMETRY, StewartGeometry
 
@@ -96,6 +102,12 @@ class ActuatorConfig:
         Difference form of the velocity feed-forward when ``velocity_ff`` is on:
         ``"backward"`` ((L_{k+1} − L_k)/ΔT, today's), ``"central"`` ((L_{k+2} − L_k)/(2ΔT),
         needs the next set-point: a planned trajectory or a replay) or ``"none"``.
+    lag:
+        Where the first-order lag ``timeconst`` sits: ``"setpoint"`` (a digital filter of
+        the set-point at the interface rate before the hold, today's bench) or ``"servo"``
+        (the servo's continuous dynamics after the hold, a valve or amplifier: MuJoCo
+        actuator dynamics integrated with the physics at the physics step; the model's
+        ``leg{i}_lag`` actuators).
     """
 
     kp: float = 2.0e5
@@ -111,10 +123,11 @@ class ActuatorConfig:
     hold: str = "ramp"
     sample: str = "end"
     feedforward: str = "backward"
+    lag: str = "setpoint"
 
     def __post_init__(self) -> None:
         for name, allowed in (("hold", HOLD), ("sample", SAMPLE),
-                              ("feedforward", FEEDFORWARD),
+                              ("feedforward", FEEDFORWARD), ("lag", LAG),
                               ("gravity_source", ("nominal", "measured"))):
             v = getattr(self, name)
             _check(f"controller.{name}", v, v in allowed, "one of " + " | ".join(allowed))
@@ -131,6 +144,16 @@ class ActuatorConfig:
             v = getattr(self, name)
             if v is not None:
                 _check(f"actuator.{name}", v, math.isfinite(v) and v > 0, f"must be > 0 {unit}")
+
+    @property
+    def servo_lag(self) -> float:
+        """The time constant (s) of the servo's continuous lag after the hold (0: none)."""
+        return self.timeconst if self.lag == "servo" else 0.0
+
+    @property
+    def setpoint_lag(self) -> float:
+        """The time constant (s) of the digital set-point lag before the hold (0: none)."""
+        return self.timeconst if self.lag == "setpoint" else 0.0
 
 
 @dataclass(frozen=True)
@@ -201,6 +224,17 @@ class PlatformConfig:
                     f"{self.actuator.kv:g} N·s/m on a {self.geometry.piston_mass:g} kg piston "
                     f"(kv·h/m = {lam:.3g} must be <= 2.5): use substeps >= {need} or "
                     "integrator = 'implicitfast'"))
+        tau = self.actuator.servo_lag
+        # the servo lag's activation is integrated explicitly with the physics (RK4's stage
+        # derivatives, or explicit Euler in the other integrators)
+        top = 2.5 if self.integrator == "RK4" else 1.0
+        if tau > 0 and self.timestep / tau > top:
+            need = int(math.ceil(self.timestep / tau / top * self.substeps))
+            raise ConfigError("platform.substeps", self.substeps, "", message=(
+                f"platform.substeps: {self.substeps} is too few for a servo lag of "
+                f"{tau:g} s after the hold with {self.integrator} (physics step / "
+                f"timeconst = {self.timestep / tau:.3g} must be <= {top:g}): use "
+                f"substeps >= {need}"))
         if self.fts_pose:
             fp = tuple(float(v) for v in self.fts_pose)
             _check("platform.fts_pose", list(self.fts_pose),
@@ -258,7 +292,8 @@ def predicted_delay(config: PlatformConfig, frequency: float = 1.0,
     t_{k+1}. The chain is therefore
 
     * the lag block α/(1 − (1 − α) z⁻¹), α = 1 − exp(−ΔT/τ) (exact for a held input: its
-      delay is ≈ τ − ΔT/2) when ``timeconst`` τ > 0;
+      delay is ≈ τ − ΔT/2) when ``timeconst`` τ > 0 and ``lag = "setpoint"``; with
+      ``lag = "servo"`` the continuous lag 1/(1 + jωτ) after the hold instead;
     * the delay block (linear interpolation between samples): ``delay``;
     * the mid-step hold: phase 0 (the ΔT/2 lead of holding a value over the step that ends
       at its time cancels the ΔT/2 of averaging two samples);
@@ -275,9 +310,11 @@ def predicted_delay(config: PlatformConfig, frequency: float = 1.0,
     T = config.dt
     zinv = complex(math.cos(w * T), -math.sin(w * T))
     H = complex(1.0, 0.0)
-    if a.timeconst > 0:
+    if a.setpoint_lag > 0:
         al = 1.0 - math.exp(-T / a.timeconst)
         H *= al / (1.0 - (1.0 - al) * zinv)
+    if a.servo_lag > 0:  # continuous, after the hold
+        H /= complex(1.0, w * a.servo_lag)
     if a.delay > 0:
         steps = a.delay / T
         d0 = math.floor(steps + 1e-12)
@@ -399,6 +436,15 @@ def model_xml(config: PlatformConfig, payload_xml: str | None = None,
         f'    <general name="leg{i}" joint="leg{i}_slide" dyntype="integrator" '
         f'gaintype="fixed" gainprm="{a.kp:.12g}" biastype="affine" '
         f'biasprm="0 {-a.kp:.12g} {-a.kv:.12g}"/>' for i in range(6))
+    tau = a.servo_lag
+    if tau > 0:
+        # the servo's continuous lag after the hold (module docstring): the lagged set-point
+        # is act − τ·f with f filtering the same control (the set-point rate), so this
+        # actuator adds −kp·τ·f on the slide; its control is written with the leg's
+        acts += "\n" + "\n".join(
+            f'    <general name="leg{i}_lag" joint="leg{i}_slide" dyntype="filter" '
+            f'dynprm="{tau:.12g}" gaintype="fixed" gainprm="{-a.kp * tau:.12g}" '
+            f'biastype="none"/>' for i in range(6))
     fts_r = 0.05
     # the FTS site and the frame of the part: on the plate's axis (today's bench) or at the
     # scene's fts_pose (the sensor housing then spans the plate-to-site height at its x, y)
@@ -415,6 +461,9 @@ def model_xml(config: PlatformConfig, payload_xml: str | None = None,
     # read a step's end-of-step sample at the start of the next (rths3d.platform.sim)
     legsens = "\n".join(f'    <actuatorfrc name="leg{i}_force" actuator="leg{i}"/>'
                          for i in range(6))
+    if tau > 0:  # the leg's force is both actuators' on its slide
+        legsens = "\n".join(f'    <jointactuatorfrc name="leg{i}_force" joint="leg{i}_slide"/>'
+                             for i in range(6))
     return f"""<mujoco model="rths3d_stewart">
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{ts:.12g}" integrator="{config.integrator}"

@@ -201,7 +201,7 @@ def platform_args(sim: PlatformBatch) -> tuple:
     geo = (sim._b, sim._p, sim._hh, sim._home, sim._half, sim._vdt, sim._vmax, sim._fmax)
     ctl = (sim._ffg, sim._ffn, sim._Lprev, sim._L, np.zeros_like(sim._L), sim._sp,
            np.zeros_like(sim._sp), sim._off, sim._bias, sim._cprev, sim._cnew, sim._zoh,
-           sim._inv_dt, sim._a0, sim._s0, sim._ahead, sim._Lnext)
+           sim._inv_dt, sim._a0, sim._s0, sim._ahead, sim._Lnext, sim._lag)
     live = (sim._ctrl, sim._act, sim.live_qpos, sim._legs_q, sim._legs_v, sim._legs_f,
             sim.leg_force_sensor, sim._fts_quat, sim._live_R)
     has_c = sim._fts_C is not None

@@ -201,7 +201,10 @@ class PlatformBatch:
         self._qpos = self.batch.bind("qpos")
         self._qvel = self.batch.bind("qvel")
         self._sensor = self.batch.bind("sensordata")
-        self._force = self.batch.bind("actuator_force")
+        # the leg force: the servo's actuator, or with a servo lag after the hold
+        # (leg{i}_lag actuators) both actuators' force on the slide
+        self._servo_lag = ids_lag = self.ids.lag_act.size > 0
+        self._force = self.batch.bind("qfrc_actuator" if ids_lag else "actuator_force")
         self._xmat = self.batch.bind("site_xmat")
         g = config.geometry
         self._home = g.home_leg_lengths()
@@ -238,7 +241,8 @@ class PlatformBatch:
         self._v_slice = slice(int(ids.slide_dof[0]), int(ids.slide_dof[-1]) + 1, vs)
         self._legs_q = self._qpos[:, self._q_slice]
         self._legs_v = self._qvel[:, self._v_slice]
-        self._legs_f = self._force[:, self._a0:self._a0 + 6]
+        self._legs_f = self._force[:, self._v_slice] if self._servo_lag else \
+            self._force[:, self._a0:self._a0 + 6]
         # anchors for the per-step inverse kinematics (the controller's geometry)
         self._b = np.ascontiguousarray(g.base_anchors(), dtype=float)
         self._p = np.ascontiguousarray(g.top_anchors(), dtype=float)
@@ -299,7 +303,7 @@ class PlatformBatch:
         # the controller's set-point blocks: lag and transport delay of each test's settings,
         # then the bench's per-leg blocks (effects)
         chain: list[Block] = []
-        tcs = np.repeat([c.actuator.timeconst for c in self._cfgs], 6)
+        tcs = np.repeat([c.actuator.setpoint_lag for c in self._cfgs], 6)
         if np.any(tcs > 0):
             chain.append(LagBlock(nsim, 6, tcs, config.dt))
         dls = np.repeat([c.actuator.delay for c in self._cfgs], 6)
@@ -314,6 +318,13 @@ class PlatformBatch:
         self._inv_dt = 1.0 / config.dt
         self._act = self.batch.bind("act")
         self._s0 = int(self.model.actuator_actadr[ids.act[0]])
+        # the servo's continuous lag after the hold: its actuators, activations and 1/τ
+        taus = np.array([c.actuator.servo_lag for c in self._cfgs])
+        if self._servo_lag and not np.all(taus > 0):
+            raise ConfigError("controller.lag", "servo", "tests stepped together need the "
+                              "same servo structure (a servo lag > 0 s in every test)")
+        self._lag = (int(ids.lag_act[0]), int(self.model.actuator_actadr[ids.lag_act[0]]),
+                     1.0 / taus) if self._servo_lag else (-1, -1, np.zeros(nsim))
         self._any_stopped = False
         self._run = np.ones(nsim, dtype=np.bool_)
         self.leg_hook = None
@@ -542,7 +553,7 @@ class PlatformBatch:
             self.k += 1
             return
         ramp_ctrl(y, self._off, self._bias, self._cprev, self._cnew, self._ctrl, self._a0,
-                  self._inv_dt, run, self._zoh, self._act, self._s0)
+                  self._inv_dt, run, self._zoh, self._act, self._s0, self._lag)
         if ids is None:
             self.batch.step(nstep=self._nsub)
         else:

@@ -155,7 +155,10 @@ class StewartTransfer:
                           if not get_effect(name).is_off(v) and
                           (get_effect(name).stage in ("setpoint", "fts", "sensor", "noise")
                            or get_effect(name).structural)})
-        return (compensator_key(s), setting(s, "transfer.substeps", 1),
+        # a servo lag after the hold adds actuators to the model (rths3d.platform.model)
+        servo_lag = s.get("controller.lag", "setpoint") == "servo" and \
+            setting(s, "transfer.timeconst", 0.0) > 0
+        return (compensator_key(s), setting(s, "transfer.substeps", 1), servo_lag,
                 s.get("transfer.integrator", "RK4"),
                 part_class(s.get("experiment.kind", "contact")).batch_key(s), sensor_key(s),
                 tuple(effects))
