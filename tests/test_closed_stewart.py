@@ -1,7 +1,7 @@
 """The closed vRTHS loop with the Stewart platform: compiled ranges against the Python driver.
 
 The Python driver (rths3d.loop._Group._python, one step at a time through
-PlatformBatch._advance) is the reference; the compiled ranges (rths3d.platform.closed) must
+PlatformBatch.advance) is the reference; the compiled ranges (rths3d.platform.closed) must
 give the same record to 1e-12 of each signal's peak, including sensor noise, start sampling,
 a zero-order hold, a monitor stop and a platform stop inside a range.
 """

@@ -1,5 +1,5 @@
 """The compiled interface steps (MuJoCo's C API from numba, rths3d.platform.compiled) give the
-records of the Python driver (PlatformBatch._advance one step at a time, the reference):
+records of the Python driver (PlatformBatch.advance one step at a time, the reference):
 every channel equal to 1e-12 of its peak, with effects in every stage, safety stops,
 a held set-point, start sampling and the central feed-forward, one test and a batch split
 over threads."""
@@ -121,7 +121,7 @@ def test_compiled_range_steps_the_same_mujoco_state_as_mj_step():
     mujoco.mj_setState(m, d, start[0], sig)
     for r in range(1, 3):
         sim2.poses[:] = P[r]
-        sim2._advance()
+        sim2.advance()
         d.ctrl[:] = sim2._ctrl[0]
         # the servo set-point at the start of the step is the previous end of the ramp
         mujoco.mj_step(m, d)

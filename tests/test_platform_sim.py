@@ -183,7 +183,7 @@ def test_interface_force_sign_restoring():
     import mujoco
 
     mujoco.mj_forward(sim.model, sim.data)
-    sim._b._read_fts()  # the sensor's reading of that state
+    sim._b.read_fts()  # the sensor's reading of that state
     fz = sim.interface_wrench[2]
     z = sim.pose[2]
     assert z == pytest.approx(0.002, abs=5e-5)  # servo compliance under the 40 N load
@@ -461,7 +461,7 @@ def test_measured_limits_report_the_same_reason_in_single_and_batch():
     with pytest.raises(SafetyStop) as info:
         sim._check_measured(q, v, f)
     batch = PlatformBatch(nsim=1, nthread=1, settle=0.0)
-    batch._measured_limits(np.array([q]), np.array([v]), np.array([f]))
+    batch.measured_limits(np.array([q]), np.array([v]), np.array([f]))
     assert info.value.reason == batch.reasons[0]
     assert info.value.quantity == "leg 0 velocity"
 

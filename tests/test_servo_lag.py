@@ -32,7 +32,7 @@ def _servo_setpoints(hold: str, n: int = 60, substeps: int = 1):
     c, x = [sim._cnew[0].copy()], []
 
     def lagged() -> np.ndarray:
-        return sim._legs_q[0] + (sim.meas_legs_f[0] + KV * sim._legs_v[0]) / KP
+        return sim.live_legs_q[0] + (sim.meas_legs_f[0] + KV * sim.live_legs_v[0]) / KP
 
     x.append(lagged())
     for k in range(n):

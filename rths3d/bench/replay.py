@@ -196,7 +196,7 @@ class BenchReplay:
         if not sensor.empty:
             for r in range(1, N):
                 ff[r] = sensor(ff[r])
-        pose = plate_pose(q, sim._hh)
+        pose = plate_pose(q, sim.home_height)
         enc = sim.encoder_lengths(lq)
         out = []
         for k in range(K):

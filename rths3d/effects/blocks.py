@@ -442,6 +442,12 @@ class Chain:
         for b in self.blocks:
             b.reset()
 
+    def kernel_group(self) -> tuple:
+        """The chain as a compiled kernel takes it: its blocks' kernels, parameters and
+        states padded to a fixed count (:func:`padded_kernels`), the noise work array (R,)
+        and whether the chain is empty."""
+        return (*padded_kernels(self.fns, self.params, self.states), self._w, self.empty)
+
     def draw(self, out: np.ndarray) -> None:
         """Fill ``out`` (steps, R) with the noise draws of the next steps (if any)."""
         if self.noise is not None:

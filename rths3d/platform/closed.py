@@ -55,7 +55,6 @@ from .kernels import (
     read_interface,
     take_sample,
 )
-from .ranges import _mj_tuple, platform_args
 
 __all__ = ["ClosedRange", "closed_ok", "closed_range"]
 
@@ -280,7 +279,7 @@ def closed_ok(transfer: Any) -> bool:
     sim = transfer.sim
     if transfer.compensator.compiled() is None or not compiled_ok(sim):
         return False
-    if sim._ahead:
+    if sim.needs_next_setpoint:
         return False
     for sig in transfer.signals:
         src = sig.source
@@ -342,8 +341,8 @@ class ClosedRange:
 
     def _plat(self) -> tuple:
         sim = self.sim
-        geo, ctl, chain, live, fts, smp = platform_args(sim)
-        mt = _mj_tuple(sim, True)
+        geo, ctl, chain, live, fts, smp = sim.kernel_arrays()
+        mt = sim.mujoco_arrays(True)
         # the warm first substep: one MjData per test stepped in place (a batch's state
         # rows are loaded by a range's first step only)
         m = sim.model
@@ -356,8 +355,8 @@ class ClosedRange:
             m.actuator_dyntype, (int(mujoco.mjtDyn.mjDYN_INTEGRATOR),
                                  int(mujoco.mjtDyn.mjDYN_FILTER))))) and not bool(
             np.any(m.actuator_actearly))
-        mj = (*mt, sim._run, warm, rate_only)
-        return (geo, ctl, chain, mj, live, fts, smp, (sim._pre, sim.rest_pose))
+        mj = (*mt, sim.running, warm, rate_only)
+        return (geo, ctl, chain, mj, live, fts, smp, (sim.tare_wrench, sim.rest_pose))
 
     def _static(self, a: int, b: int) -> tuple:
         """The arguments of tests a … b−1 that do not change between calls (views)."""
@@ -414,7 +413,7 @@ class ClosedRange:
             sens = (*sens, np.ascontiguousarray(sw[:, a * nd:b * nd]))
             znz = (*znz, np.ascontiguousarray(zw[:, a * nd:b * nd]))
             calls.append([n0, (num, mon, rec, comp, io, sens, znz, hist, plat), cmd, a, b])
-        sim._fresh = False
+        sim.fresh = False
         k0 = sim.k
         pos = [n0] * len(calls)
         todo = list(range(len(calls)))
@@ -458,22 +457,23 @@ class ClosedRange:
             sim.k = k - 1
             s, dl = np.zeros((g.K, 6)), np.zeros((g.K, 6))
             s[sl], dl[sl] = cmd[1], cmd[2]
-            sim._command_limits(s, dl)
+            sim.command_limits(s, dl)
         sim.k = k
         if whole:
-            sim._check_status()
+            sim.check_status()
         else:
             self._diverged(sl)
-        q, v, f = sim._legs_q, sim._legs_v, sim._legs_f
-        if over(q[sl], v[sl], f[sl], sim._half, sim._vmax, sim._fmax, sim._run[sl]):
+        q, v, f = sim.live_legs_q, sim.live_legs_v, sim.live_legs_f
+        if over(q[sl], v[sl], f[sl], sim.half_stroke, sim.velocity_limit, sim.force_limit,
+                sim.running[sl]):
             if whole:
-                sim._measured_limits(q, v, f)
+                sim.measured_limits(q, v, f)
             else:
                 mask = np.zeros((g.K, 1))
                 mask[sl] = 1.0
-                sim._measured_limits(q * mask, v * mask, f * mask)
+                sim.measured_limits(q * mask, v * mask, f * mask)
         sim.k = keep
-        if sim._any_stopped:
+        if sim.any_stopped:
             tr.stopped[:] = sim.stopped
             tr.reasons = list(sim.reasons)
         for j in np.flatnonzero(tr.stopped[sl] & mon.active[sl]):
@@ -493,7 +493,7 @@ class ClosedRange:
         from ..errors import SafetyStop
 
         sim = self.sim
-        expected = sim._t0 + sim.k * sim.config.dt - 0.5 * sim.config.timestep
+        expected = sim.t0 + sim.k * sim.config.dt - 0.5 * sim.config.timestep
         failed = sim.batch.failed(expected)
         if failed is None:
             return
@@ -501,5 +501,5 @@ class ClosedRange:
             k = sl.start + int(j)
             msg = sim.batch.error(k).strip()
             what = msg or "MuJoCo bad acceleration, state was reset"
-            sim._freeze(k, SafetyStop(f"divergence ({what}) |qacc|", math.inf, _MAXVAL,
+            sim.freeze(k, SafetyStop(f"divergence ({what}) |qacc|", math.inf, _MAXVAL,
                                       sim.t, test=k))

@@ -13,7 +13,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-import mujoco
 import numpy as np
 
 if TYPE_CHECKING:
@@ -49,66 +48,23 @@ def compiled_ok(sim: PlatformBatch) -> bool:
     return inner is None or not getattr(inner, "_expanded", {})
 
 
-def _mj_tuple(sim: PlatformBatch, forward: bool) -> tuple:
-    """The MuJoCo tuple of :func:`~rths3d.platform.compiled.run_range` (see there)."""
-    from .compiled import _TIME_SIG, STATE_SIG
-
-    K = sim.nsim
-    cfg = sim.config
-    inner = sim.batch.batch
-    if inner is None:  # one MjData: stepped in place
-        d = sim.batch.d
-        models, datas, rows = [sim.model], [d], False
-        state = np.zeros((1, 1))
-        oaddr = np.zeros((1, 0), dtype=np.int64)
-        daddr_out = np.zeros((1, 0), dtype=np.int64)
-        osize = np.zeros(0, dtype=np.int64)
-    else:
-        ms = inner.models
-        models = list(ms) if isinstance(ms, list | tuple) else [ms or sim.model] * K
-        if len(sim._scratch) != K or any(
-                s[0] is not m for s, m in zip(sim._scratch, models, strict=True)):
-            sim._scratch = [(m, mujoco.MjData(m)) for m in models]
-        datas = [s[1] for s in sim._scratch]
-        rows = True
-        state = inner.state
-        assert state.shape[1] == mujoco.mj_stateSize(models[0], STATE_SIG)
-        names = list(inner._bound)
-        oaddr = np.zeros((K, len(names)), dtype=np.int64)
-        daddr_out = np.zeros((K, len(names)), dtype=np.int64)
-        osize = np.zeros(len(names), dtype=np.int64)
-        for j, name in enumerate(names):
-            out = inner._bound[name]
-            assert out.flags.c_contiguous and out.dtype == np.float64
-            osize[j] = out[0].size
-            for k in range(K):
-                oaddr[k, j] = out.ctypes.data + k * out.strides[0]
-                daddr_out[k, j] = getattr(datas[k], name).ctypes.data
-    maddr = np.array([m._address for m in models], dtype=np.int64)
-    daddr = np.array([d._address for d in datas], dtype=np.int64)
-    dact = np.array([d.act.ctypes.data for d in datas], dtype=np.int64)
-    return (maddr, daddr, rows, state, STATE_SIG, oaddr, daddr_out, osize, dact,
-            int(cfg.substeps), np.zeros(K), _TIME_SIG, False, forward, float(sim._t0),
-            float(cfg.dt), float(cfg.timestep))
-
-
 def _python_row(sim: PlatformBatch, r: int, lazy: bool, idx: np.ndarray, rec: TrackRecord,
                 z: np.ndarray, f: np.ndarray) -> None:
     """Row r through the Python driver (the reference step)."""
     if lazy:
         # the forces of step r are read after step r + 1 (its start is step r's end:
         # PlatformBatch._advance(sample=False)), the pose right after step r
-        sim._advance(sample=False)
-        sim._read_fts()
+        sim.advance(sample=False)
+        sim.read_fts()
         sim.read_start(idx, z, f)
         if r >= 2:
             rec.f[r - 1] = f
             rec.legs_f[r - 1] = sim.leg_force_sensor
             rec.fts[r - 1] = sim.fts_reading
         rec.q[r] = sim.live_qpos
-        rec.legs_q[r] = sim._legs_q
+        rec.legs_q[r] = sim.live_legs_q
     else:
-        sim._advance()
+        sim.advance()
         sim.read(idx, z, f)
         rec.f[r] = f
         rec.legs_f[r] = sim.meas_legs_f
@@ -141,8 +97,8 @@ def track_batch(sim: PlatformBatch, poses: np.ndarray, idx: np.ndarray, *,
                       np.full(K, N))
     z, f = np.zeros((K, n)), np.zeros((K, n))
     rec.q[0] = sim.live_qpos if lazy else sim.plate_qpos
-    rec.legs_q[0] = sim._legs_q if lazy else sim.meas_legs_q
-    rec.legs_f[0] = sim._legs_f if lazy else sim.meas_legs_f
+    rec.legs_q[0] = sim.live_legs_q if lazy else sim.meas_legs_q
+    rec.legs_f[0] = sim.live_legs_f if lazy else sim.meas_legs_f
     rec.fts[0] = sim.fts_reading
     args = None
     if compiled and compiled_ok(sim):
@@ -153,7 +109,7 @@ def track_batch(sim: PlatformBatch, poses: np.ndarray, idx: np.ndarray, *,
         rec.stop[sim.stopped] = 1  # stopped before the first step (e.g. while settling)
     r = 1
     while r < N:
-        if sim._any_stopped and sim.stopped.all():
+        if sim.any_stopped and sim.stopped.all():
             break
         if args is None:
             sim.poses[:] = P[r]
@@ -170,57 +126,27 @@ def track_batch(sim: PlatformBatch, poses: np.ndarray, idx: np.ndarray, *,
                 _python_row(sim, r, lazy, idx, rec, z, f)
                 r += 1
             elif code:
-                sim._check_status()
-                from .kernels import measured_over
-
-                if measured_over(sim._legs_q, sim._legs_v, sim._legs_f, sim._half, sim._vmax,
-                                 sim._fmax, sim._run):
-                    sim._measured_limits(sim._legs_q, sim._legs_v, sim._legs_f)
+                sim.check_status()
+                sim.check_measured()
             sim.poses[:] = P[r - 1]
-        if sim._any_stopped:
+        if sim.any_stopped:
             for k in np.flatnonzero(sim.stopped & (rec.stop == N)):
                 rec.stop[k] = r - 1
     if lazy:
         sim.batch.forward()
-        sim._read_fts()
+        sim.read_fts()
         sim.read(idx, z, f)
         rec.f[N - 1] = f
-        rec.legs_f[N - 1] = sim._legs_f
+        rec.legs_f[N - 1] = sim.live_legs_f
         rec.fts[N - 1] = sim.fts_reading
     return rec
-
-
-def platform_args(sim: PlatformBatch) -> tuple:
-    """The platform's argument groups of the compiled kernels (views of ``sim``'s arrays):
-    (geometry, controller, set-point chain, live MuJoCo views, FTS, sampling); the MuJoCo
-    group is the caller's (:func:`_mj_tuple` and what its kernel adds)."""
-    from ..effects.blocks import padded_kernels
-
-    ch = sim.setpoint_chain
-    chain = (*padded_kernels(ch.fns, ch.params, ch.states), ch._w, ch.empty)
-    geo = (sim._b, sim._p, sim._hh, sim._home, sim._half, sim._vdt, sim._vmax, sim._fmax)
-    ctl = (sim._ffg, sim._ffn, sim._Lprev, sim._L, np.zeros_like(sim._L), sim._sp,
-           np.zeros_like(sim._sp), sim._off, sim._bias, sim._cprev, sim._cnew, sim._zoh,
-           sim._inv_dt, sim._a0, sim._s0, sim._ahead, sim._Lnext, sim._lag)
-    live = (sim._ctrl, sim._act, sim.live_qpos, sim._legs_q, sim._legs_v, sim._legs_f,
-            sim.leg_force_sensor, sim._fts_quat, sim._live_R)
-    has_c = sim._fts_C is not None
-    C = sim._fts_C if has_c else np.zeros((1, 6, 6))
-    fts = (has_c, C, sim._fts_b, sim._raw_force, sim._raw_torque, sim.fts_reading,
-           sim._fts_force, sim._fts_torque)
-    meas = (sim.plate_qpos, sim.meas_legs_q, sim.meas_legs_f, sim._fts_R)
-    K = sim.nsim
-    targets = meas if sim._any_start else (np.zeros((K, 7)), np.zeros((K, 6)),
-                                            np.zeros((K, 6)), np.zeros((K, 9)))
-    smp = (sim._start, sim._any_start, *targets, *meas)
-    return geo, ctl, chain, live, fts, smp
 
 
 def _range_args(sim: PlatformBatch, P, Pn, idx, rec: TrackRecord, z, f,
                 lazy: bool) -> tuple:
     """The arguments of :func:`~rths3d.platform.compiled.run_range` after its step range."""
-    geo, ctl, chain, live, fts, smp = platform_args(sim)
-    mj = _mj_tuple(sim, not lazy)
-    recs = (lazy, idx, sim._pre, sim.rest_pose, sim._R_start, z, f, rec.q, rec.legs_q,
+    geo, ctl, chain, live, fts, smp = sim.kernel_arrays()
+    mj = sim.mujoco_arrays(not lazy)
+    recs = (lazy, idx, sim.tare_wrench, sim.rest_pose, sim.fts_R_start, z, f, rec.q, rec.legs_q,
             rec.legs_f, rec.fts, rec.z, rec.f, True)
-    return (P[1:], Pn[1:], sim._run, geo, ctl, chain, mj, live, fts, smp, recs)
+    return (P[1:], Pn[1:], sim.running, geo, ctl, chain, mj, live, fts, smp, recs)

@@ -1,15 +1,13 @@
 """Stepping the simulated platform at the interface rate, K tests at once (K = 1 included).
 
-:class:`PlatformBatch` is what the vRTHS loop drives at 1 kHz: ``step(poses)`` takes the
-commanded poses (K, 6) relative to home, computes the leg set-points (inverse kinematics,
-gravity compensation, velocity feed-forward) and checks the command limits in one compiled
-kernel, advances MuJoCo by one interface step (``mujoco.batch.Batch`` for K > 1, one
-``MjData`` for K = 1, where a thread pool's dispatch costs more than the step) and checks
-the measured limits. :class:`~rths3d.platform.single.PlatformSim` is the same code for one
-platform with float poses and a :class:`~rths3d.errors.SafetyStop` raised at a limit. This
-one-step-at-a-time driver is the readable reference; a known command series runs in
-compiled ranges (:func:`rths3d.platform.ranges.track_batch`,
-:mod:`rths3d.platform.compiled`), which hand stops back to it and give the same records.
+:class:`PlatformBatch` is what the vRTHS loop drives at 1 kHz: ``step(poses)`` computes the
+leg set-points (inverse kinematics, gravity compensation, velocity feed-forward), checks the
+command limits, advances MuJoCo one interface step (``mujoco.batch.Batch`` for K > 1, one
+``MjData`` for K = 1) and checks the measured limits. This one-step-at-a-time driver is the
+readable reference; the compiled kernels (:mod:`rths3d.platform.compiled`,
+:mod:`rths3d.platform.closed`) take the batch's arrays through :meth:`~PlatformBatch.
+kernel_arrays` (:mod:`rths3d.platform.kernel_io`), hand stops back to it and give the same
+records. :class:`~rths3d.platform.single.PlatformSim` is one platform on top of it.
 
 The controller's conventions are each test's ``ActuatorConfig`` data (``hold``, ``sample``,
 ``feedforward``); the defaults are the convention below (ramp, end, backward difference).
@@ -58,6 +56,7 @@ from .backend import (
     assemble,
     static_state,
 )
+from .kernel_io import KernelArrays, mujoco_group
 from .kernels import (
     copy_fts,
     end_ramp,
@@ -207,18 +206,18 @@ class PlatformBatch:
         self._force = self.batch.bind("qfrc_actuator" if ids_lag else "actuator_force")
         self._xmat = self.batch.bind("site_xmat")
         g = config.geometry
-        self._home = g.home_leg_lengths()
-        self._half = config.stroke / 2
-        self._vmax = float(config.velocity_limit)
-        self._vdt = self._vmax * config.dt
-        self._fmax = float(config.force_limit)
+        self.home_lengths = g.home_leg_lengths()
+        self.half_stroke = config.stroke / 2
+        self.velocity_limit = float(config.velocity_limit)
+        self._vdt = self.velocity_limit * config.dt
+        self.force_limit = float(config.force_limit)
         # the controller's conventions per test, as data: velocity feed-forward gains on the
         # backward (ffg) and forward (ffn) differences of the leg lengths, hold and sampling
         gains = [_ff_gains(c) for c in self._cfgs]
         self._ffg = np.array([g_[0] for g_ in gains])
         self._ffn = np.array([g_[1] for g_ in gains])
-        self._ahead = bool(np.any(self._ffn != 0.0))
-        if self._ahead and not replay:
+        self.needs_next_setpoint = bool(np.any(self._ffn != 0.0))
+        if self.needs_next_setpoint and not replay:
             raise ConfigError("controller.feedforward", "central", "needs the next "
                               "set-point: only an open-loop replay of a known command has it, "
                               "not a closed loop; use backward or none")
@@ -239,24 +238,24 @@ class PlatformBatch:
         self._q_slice = slice(int(ids.slide_qpos[0]), int(ids.slide_qpos[-1]) + 1, qs)
         vs = int(ids.slide_dof[1] - ids.slide_dof[0])
         self._v_slice = slice(int(ids.slide_dof[0]), int(ids.slide_dof[-1]) + 1, vs)
-        self._legs_q = self._qpos[:, self._q_slice]
-        self._legs_v = self._qvel[:, self._v_slice]
-        self._legs_f = self._force[:, self._v_slice] if self._servo_lag else \
+        self.live_legs_q = self._qpos[:, self._q_slice]
+        self.live_legs_v = self._qvel[:, self._v_slice]
+        self.live_legs_f = self._force[:, self._v_slice] if self._servo_lag else \
             self._force[:, self._a0:self._a0 + 6]
         # anchors for the per-step inverse kinematics (the controller's geometry)
-        self._b = np.ascontiguousarray(g.base_anchors(), dtype=float)
-        self._p = np.ascontiguousarray(g.top_anchors(), dtype=float)
-        self._hh = float(g.home_height)
+        self.ik_base_anchors = np.ascontiguousarray(g.base_anchors(), dtype=float)
+        self.ik_top_anchors = np.ascontiguousarray(g.top_anchors(), dtype=float)
+        self.home_height = float(g.home_height)
         pa = self.ids.plate_qpos
         self.live_qpos = self._qpos[:, pa:pa + 7]
         """Live (K, 7) view of the plate's free-joint qpos (position m, quaternion wxyz)."""
         self.plate_qpos = self.live_qpos
         """The measured plate qpos (K, 7) of the last sample (position m, quaternion wxyz):
         the live view when every test samples at the end of the step."""
-        self.meas_legs_q = self._legs_q
+        self.meas_legs_q = self.live_legs_q
         """Measured leg extensions (K, 6) of the last sample, m (encoders: add
         :meth:`encoder_lengths`)."""
-        self.meas_legs_f = self._legs_f
+        self.meas_legs_f = self.live_legs_f
         """Measured leg forces (K, 6) of the last sample, N."""
         fa, ta = self.ids.force_adr, self.ids.torque_adr
         self._raw_force = self._sensor[:, fa:fa + 3]
@@ -291,7 +290,7 @@ class PlatformBatch:
         self.leg_force_sensor = self._sensor[:, la:la + 6]
         """Live (K, 6) leg forces from the sensors (N): the start-of-step evaluation."""
         self._fts_quat = self._sensor[:, qa:qa + 4]
-        self._R_start = np.zeros((nsim, 9))
+        self.fts_R_start = np.zeros((nsim, 9))
         self._L = np.zeros((nsim, 6))
         self._sp = np.zeros((nsim, 6))
         self._cprev = np.zeros((nsim, 6))
@@ -313,7 +312,7 @@ class PlatformBatch:
         self.setpoint_chain = Chain(nsim, 6, chain)
         self.poses = np.zeros((nsim, 6))
         """The poses (K, 6) commanded by the last step (m, rad, relative to home)."""
-        self._fresh = False
+        self.fresh = False
         self._nsub = int(config.substeps)
         self._inv_dt = 1.0 / config.dt
         self._act = self.batch.bind("act")
@@ -325,8 +324,8 @@ class PlatformBatch:
                               "same servo structure (a servo lag > 0 s in every test)")
         self._lag = (int(ids.lag_act[0]), int(self.model.actuator_actadr[ids.lag_act[0]]),
                      1.0 / taus) if self._servo_lag else (-1, -1, np.zeros(nsim))
-        self._any_stopped = False
-        self._run = np.ones(nsim, dtype=np.bool_)
+        self.any_stopped = False
+        self.running = np.ones(nsim, dtype=np.bool_)
         self.leg_hook = None
         """Per-leg compensation (``transfer.compensate = "legs"``, set by
         :mod:`rths3d.transfer.legs`): ``hook(L)`` writes into L (K, 6) the leg lengths (m) to
@@ -420,45 +419,45 @@ class PlatformBatch:
         self._cnew[:] = self._cprev
         self._sp[:] = 0.0
         self.setpoint_chain.reset()
-        self._Lprev = np.tile(self._home, (self.nsim, 1))
+        self._Lprev = np.tile(self.home_lengths, (self.nsim, 1))
         self.poses[:] = 0.0
         self.stopped[:] = False
-        self._any_stopped = False
+        self.any_stopped = False
         self._ids = self._all
-        self._run[:] = True
+        self.running[:] = True
         self.reasons = [""] * self.nsim
         self.stops = [None] * self.nsim
         self.stop_time[:] = np.nan
         nset = int(round(self.settle / self.config.timestep))
-        self._t0 = nset * self.config.timestep
+        self.t0 = nset * self.config.timestep
         if nset:
             self.batch.step(nstep=nset)
         # channels of the settled state (a step leaves them at the start of its last substep)
         self.batch.forward()
-        self._read_fts()
+        self.read_fts()
         if self._any_start:
             self._sample(True)
             self._sample(False)
         self.k = 0
-        self._check_status(settling=True)
+        self.check_status(settling=True)
         # zero and tare at measured rest, as a bench does
-        self._pre = np.zeros((self.nsim, 6))
+        self.tare_wrench = np.zeros((self.nsim, 6))
         self.rest_pose[:] = 0.0
-        world_wrench(self._fts_R, self._fts_force, self._fts_torque, self._pre,
-                     np.arange(6, dtype=np.int64), self._pre)
-        self.rest_pose[:] = plate_pose(self.plate_qpos, self._hh)
-        self.rest_leg_forces[:] = self._legs_f
-        self._fresh = not self._any_stopped
+        world_wrench(self._fts_R, self._fts_force, self._fts_torque, self.tare_wrench,
+                     np.arange(6, dtype=np.int64), self.tare_wrench)
+        self.rest_pose[:] = plate_pose(self.plate_qpos, self.home_height)
+        self.rest_leg_forces[:] = self.live_legs_f
+        self.fresh = not self.any_stopped
 
     def _sample(self, start: bool) -> None:
         """Copy the live channels of the tests sampled at the start (``start``) or at the end
         of the step into the sample buffers (only when a test samples at the start)."""
-        take_sample(self._start, start, self.live_qpos, self._legs_q, self._legs_f,
+        take_sample(self._start, start, self.live_qpos, self.live_legs_q, self.live_legs_f,
                     self._live_R, self.plate_qpos, self.meas_legs_q, self.meas_legs_f,
                     self._fts_R, self._raw_force, self._raw_torque, self._fts_C, self._fts_b,
                     self.fts_reading)
 
-    def _read_fts(self) -> None:
+    def read_fts(self) -> None:
         if self._fts_C is not None:
             fts_distort(self._raw_force, self._raw_torque, self._fts_C, self._fts_b,
                         self._fts_force, self._fts_torque)
@@ -468,7 +467,7 @@ class PlatformBatch:
     def ensure_reset(self) -> None:
         """:meth:`reset`, unless the platform is still as its last reset left it (not
         stepped, nothing stopped): the same state without settling twice."""
-        if not (self._fresh and self.k == 0):
+        if not (self.fresh and self.k == 0):
             self.reset()
 
     @property
@@ -476,19 +475,19 @@ class PlatformBatch:
         """Simulated test time (s) since reset."""
         return self.k * self.config.dt
 
-    def _freeze(self, k: int, stop: SafetyStop) -> None:
+    def freeze(self, k: int, stop: SafetyStop) -> None:
         if not self.stopped[k]:
-            self._any_stopped = True
+            self.any_stopped = True
             self.stops[k] = stop
             self.stopped[k] = True
-            self._run[k] = False
-            self._ids = self._all[self._run]  # the tests still stepped (once per stop)
+            self.running[k] = False
+            self._ids = self._all[self.running]  # the tests still stepped (once per stop)
             self.reasons[k] = stop.reason
             self.stop_time[k] = stop.t
 
-    def _check_status(self, settling: bool = False) -> None:
+    def check_status(self, settling: bool = False) -> None:
         """Flag tests whose simulation failed or diverged (MuJoCo resets such a state)."""
-        expected = self._t0 + self.k * self.config.dt - 0.5 * self.config.timestep
+        expected = self.t0 + self.k * self.config.dt - 0.5 * self.config.timestep
         failed = self.batch.failed(expected)
         if failed is None:
             return
@@ -497,7 +496,7 @@ class PlatformBatch:
             for k in np.flatnonzero(bad):
                 msg = self.batch.error(int(k)).strip()
                 what = msg or "MuJoCo bad acceleration, state was reset"
-                self._freeze(int(k), SafetyStop(f"divergence ({what}) |qacc|", math.inf,
+                self.freeze(int(k), SafetyStop(f"divergence ({what}) |qacc|", math.inf,
                                                 _MAXVAL, 0.0 if settling else self.t,
                                                 test=int(k)))
 
@@ -512,7 +511,7 @@ class PlatformBatch:
             raise ConfigError("poses", f"array of shape {poses.shape}",
                               f"need ({self.nsim}, 6)")
         self.poses[:] = poses
-        self._advance()
+        self.advance()
 
     def step_interface(self, u: np.ndarray, idx: np.ndarray, z: np.ndarray,
                        f: np.ndarray) -> None:
@@ -520,10 +519,10 @@ class PlatformBatch:
         keep their commanded pose), then the achieved DOFs into ``z`` and their interface
         wrench into ``f`` (the loop's hot path)."""
         interface_command(u, idx, self.poses)
-        self._advance()
+        self.advance()
         self.read(idx, z, f)
 
-    def _advance(self, sample: bool = True) -> None:
+    def advance(self, sample: bool = True) -> None:
         """One interface step from the commanded poses in :attr:`poses` (the hot path).
 
         ``sample=False`` skips the end-of-step ``mj_forward``: the sensors and actuator forces
@@ -531,24 +530,26 @@ class PlatformBatch:
         (its activation) and the control only its rate, the next step's own evaluation at
         its start gives exactly this step's end-of-step sample: an open-loop replay reads
         them one step later instead of paying a second evaluation per step."""
-        self._fresh = False
+        self.fresh = False
         sp = self._sp
         ik = self.leg_hook is None
         if not ik:
             # per-leg compensation: the hook writes the lengths to command into _L (from the
             # poses, with this platform's anchors); the call below checks and writes those
             self.leg_hook(self._L)
-        if self._ahead:
-            leg_lengths_of(self.poses_next, self._b, self._p, self._hh, self._Lnext)
+        if self.needs_next_setpoint:
+            leg_lengths_of(self.poses_next, self.ik_base_anchors, self.ik_top_anchors,
+                           self.home_height, self._Lnext)
         if self._any_start:  # the state before this step's set-point acts
             self._sample(True)
-        if leg_setpoints(self.poses, self._b, self._p, self._hh, self._home, self._ffg,
-                         self._Lprev, self._L, sp, self._half, self._vdt, self._run, ik,
-                         self._ffn, self._Lnext, self._ahead):
-            self._command_limits(self._L - self._home, self._L - self._Lprev)
+        if leg_setpoints(self.poses, self.ik_base_anchors, self.ik_top_anchors, self.home_height,
+                         self.home_lengths, self._ffg, self._Lprev, self._L, sp,
+                         self.half_stroke, self._vdt, self.running, ik, self._ffn, self._Lnext,
+                         self.needs_next_setpoint):
+            self.command_limits(self._L - self.home_lengths, self._L - self._Lprev)
         y = sp if self.setpoint_chain.empty else self.setpoint_chain(sp)
-        run = self._run
-        ids = self._ids if self._any_stopped else None
+        run = self.running
+        ids = self._ids if self.any_stopped else None
         if ids is not None and not ids.size:
             self.k += 1
             return
@@ -566,17 +567,15 @@ class PlatformBatch:
             if self._any_start:
                 self._sample(False)
             else:
-                self._read_fts()
+                self.read_fts()
         self.k += 1
-        self._check_status()
-        if measured_over(self._legs_q, self._legs_v, self._legs_f, self._half, self._vmax,
-                         self._fmax, self._run):
-            self._measured_limits(self._legs_q, self._legs_v, self._legs_f)
+        self.check_status()
+        self.check_measured()
 
-    def _command_limits(self, s: np.ndarray, dL: np.ndarray) -> None:
+    def command_limits(self, s: np.ndarray, dL: np.ndarray) -> None:
         """Freeze the running tests whose command leaves stroke or speed (before the step)."""
         dt = self.config.dt
-        half, vdt = self._half, self._vdt
+        half, vdt = self.half_stroke, self._vdt
         t_next = (self.k + 1) * dt
         bad = (~(np.abs(s) <= half) | ~(np.abs(dL) <= vdt)) & ~self.stopped[:, None]
         for k in np.flatnonzero(bad.any(axis=1)):
@@ -585,29 +584,69 @@ class PlatformBatch:
                 stop = SafetyStop(f"leg {i} commanded stroke", s[k, i], half, t_next,
                                   test=int(k), unit="m")
             else:
-                stop = SafetyStop(f"leg {i} commanded velocity", dL[k, i] / dt, self._vmax,
+                stop = SafetyStop(f"leg {i} commanded velocity", dL[k, i] / dt, self.velocity_limit,
                                   t_next, test=int(k), unit="m/s")
-            self._freeze(int(k), stop)
+            self.freeze(int(k), stop)
 
-    def _measured_limits(self, q: np.ndarray, v: np.ndarray, f: np.ndarray) -> None:
+    def measured_limits(self, q: np.ndarray, v: np.ndarray, f: np.ndarray) -> None:
         """Freeze the running tests whose measured stroke, speed or force is out of limits."""
-        over = ((np.abs(q) > self._half) | (np.abs(v) > self._vmax) |
-                (np.abs(f) > self._fmax)) & ~self.stopped[:, None]
+        over = ((np.abs(q) > self.half_stroke) | (np.abs(v) > self.velocity_limit) |
+                (np.abs(f) > self.force_limit)) & ~self.stopped[:, None]
         for k in np.flatnonzero(over.any(axis=1)):
             i = int(np.flatnonzero(over[k])[0])
-            for name, arr, lim, unit in (("stroke", q, self._half, "m"),
-                                         ("velocity", v, self._vmax, "m/s"),
-                                         ("force", f, self._fmax, "N")):
+            for name, arr, lim, unit in (("stroke", q, self.half_stroke, "m"),
+                                         ("velocity", v, self.velocity_limit, "m/s"),
+                                         ("force", f, self.force_limit, "N")):
                 if abs(arr[k, i]) > lim:
-                    self._freeze(int(k), SafetyStop(f"leg {i} {name}", arr[k, i], lim,
+                    self.freeze(int(k), SafetyStop(f"leg {i} {name}", arr[k, i], lim,
                                                     self.t, test=int(k), unit=unit))
                     break
+
+    # ------------------------------------------------------------------ compiled kernels
+    def kernel_arrays(self) -> KernelArrays:
+        """The batch's arrays as the compiled kernels take them (views: a kernel steps this
+        batch in place); valid until the next :meth:`reset`."""
+        K = self.nsim
+        geo = (self.ik_base_anchors, self.ik_top_anchors, self.home_height, self.home_lengths,
+               self.half_stroke, self._vdt, self.velocity_limit, self.force_limit)
+        ctl = (self._ffg, self._ffn, self._Lprev, self._L, np.zeros_like(self._L), self._sp,
+               np.zeros_like(self._sp), self._off, self._bias, self._cprev, self._cnew,
+               self._zoh, self._inv_dt, self._a0, self._s0, self.needs_next_setpoint,
+               self._Lnext, self._lag)
+        live = (self._ctrl, self._act, self.live_qpos, self.live_legs_q, self.live_legs_v,
+                self.live_legs_f, self.leg_force_sensor, self._fts_quat, self._live_R)
+        has_c = self._fts_C is not None
+        fts = (has_c, self._fts_C if has_c else np.zeros((1, 6, 6)), self._fts_b,
+               self._raw_force, self._raw_torque, self.fts_reading, self._fts_force,
+               self._fts_torque)
+        meas = (self.plate_qpos, self.meas_legs_q, self.meas_legs_f, self._fts_R)
+        targets = meas if self._any_start else (np.zeros((K, 7)), np.zeros((K, 6)),
+                                                np.zeros((K, 6)), np.zeros((K, 9)))
+        smp = (self._start, self._any_start, *targets, *meas)
+        return KernelArrays(geo, ctl, self.setpoint_chain.kernel_group(), live, fts, smp)
+
+    def mujoco_arrays(self, forward: bool) -> tuple:
+        """The MuJoCo group of the compiled kernels (:func:`~.kernel_io.mujoco_group`):
+        ``forward``, an ``mj_forward`` at the end of each step."""
+        cfg = self.config
+        group, self._scratch = mujoco_group(self.batch, self.model, self.nsim, self._scratch,
+                                            forward, cfg.substeps, self.t0, cfg.dt,
+                                            cfg.timestep)
+        return group
+
+    def check_measured(self) -> None:
+        """Freeze the tests whose measured leg extension, velocity or force is over its limit
+        (after a compiled range handed a step back)."""
+        q, v, f = self.live_legs_q, self.live_legs_v, self.live_legs_f
+        if measured_over(q, v, f, self.half_stroke, self.velocity_limit, self.force_limit,
+                         self.running):
+            self.measured_limits(q, v, f)
 
     # ------------------------------------------------------------------ reads
     @property
     def pose(self) -> np.ndarray:
         """Achieved plate poses relative to home (K, 6), m and rad."""
-        return plate_pose(self.plate_qpos, self._hh)
+        return plate_pose(self.plate_qpos, self.home_height)
 
     @property
     def leg_lengths(self) -> np.ndarray:
@@ -617,7 +656,7 @@ class PlatformBatch:
     def encoder_lengths(self, q: np.ndarray) -> np.ndarray:
         """What the encoders read for piston extensions ``q`` (…, K, 6) of these tests, m:
         home length + extension − the set-point bias the encoders do not see."""
-        return q + (self._home - self._bias)
+        return q + (self.home_lengths - self._bias)
 
     @property
     def leg_commands(self) -> np.ndarray:
@@ -648,20 +687,20 @@ class PlatformBatch:
     def read(self, idx: np.ndarray, z: np.ndarray, f: np.ndarray) -> None:
         """Achieved interface DOFs ``idx`` into ``z`` and their measured interface wrench
         into ``f`` ((K, len(idx)) each), in one compiled call."""
-        read_interface(self.plate_qpos, self._hh, idx, self._fts_R, self._fts_force,
-                       self._fts_torque, self._pre, z, f, self.rest_pose)
+        read_interface(self.plate_qpos, self.home_height, idx, self._fts_R, self._fts_force,
+                       self._fts_torque, self.tare_wrench, z, f, self.rest_pose)
 
     def read_start(self, idx: np.ndarray, z: np.ndarray, f: np.ndarray) -> None:
         """After ``_advance(sample=False)``: the achieved interface DOFs now, and the
         interface wrench of the previous step's end-of-step sample (from the sensors, which
         the step evaluated at its start)."""
-        quat_rows(self._fts_quat, self._R_start)
-        read_interface(self.plate_qpos, self._hh, idx, self._R_start, self._fts_force,
-                       self._fts_torque, self._pre, z, f, self.rest_pose)
+        quat_rows(self._fts_quat, self.fts_R_start)
+        read_interface(self.plate_qpos, self.home_height, idx, self.fts_R_start, self._fts_force,
+                       self._fts_torque, self.tare_wrench, z, f, self.rest_pose)
 
     def interface_force(self, rows: Sequence[int]) -> np.ndarray:
         """Rows ``rows`` (0–2 force, 3–5 torque) of :attr:`interface_wrench`, (K, len(rows)),
         in a buffer reused per set of rows."""
         idx, out = self._rows(rows)
-        world_wrench(self._fts_R, self._fts_force, self._fts_torque, self._pre, idx, out)
+        world_wrench(self._fts_R, self._fts_force, self._fts_torque, self.tare_wrench, idx, out)
         return out

@@ -49,8 +49,9 @@ class PlatformSim:
         self.ids = self._b.ids
         self.settle = self._b.settle
         self._pose = np.zeros((1, 6))
-        self._h = self._b._hh
-        self._smax, self._vmax, self._fmax = self._b._half, self._b._vmax, self._b._fmax
+        self._h = self._b.home_height
+        b = self._b
+        self._smax, self._vmax, self._fmax = b.half_stroke, b.velocity_limit, b.force_limit
         self.stopped_by: SafetyStop | None = None
         """The SafetyStop that stopped the platform (``step`` raises it again), or None."""
         self._raise_if_stopped()
@@ -90,7 +91,7 @@ class PlatformSim:
     def _check_measured(self, q: Sequence[float], v: Sequence[float],
                         f: Sequence[float]) -> None:
         """Raise the SafetyStop for the first leg (then stroke, speed, force) out of limits."""
-        self._b._measured_limits(np.array([q], float), np.array([v], float),
+        self._b.measured_limits(np.array([q], float), np.array([v], float),
                                  np.array([f], float))
         self._raise_if_stopped()
 

@@ -110,8 +110,9 @@ class LegCompensation:
         self.s_meas = np.zeros((self.K, 6))
         # the platform's own kinematic arrays and its live slide positions, so that the leg
         # channels use exactly the geometry of its inverse kinematics
-        self._b, self._p, self._hh, self._home = sim._b, sim._p, sim._hh, sim._home
-        self._q = sim._legs_q
+        self._b, self._p = sim.ik_base_anchors, sim.ik_top_anchors
+        self._hh, self._home = sim.home_height, sim.home_lengths
+        self._q = sim.live_legs_q
         sim.leg_hook = self
 
     # -- the platform's hook (every step, allocation-free) ---------------------------------

@@ -195,7 +195,7 @@ class StewartTransfer:
             self.f_meas[:] = self.sensor(self._f)
         if self._znoise is not None:
             self.z_meas[:] = self._znoise(self.z_meas)
-        if sim._any_stopped:
+        if sim.any_stopped:
             self.stopped[:] = sim.stopped
             self.reasons = list(sim.reasons)
         if comp.any_stopped:  # an adaptive compensator drifted: stop like any limit
