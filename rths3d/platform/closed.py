@@ -3,7 +3,7 @@
 :func:`closed_range` advances a range of interface steps of K tests in one compiled call:
 the linear numerical substructure's step (:func:`~rths3d.numerical._kernels.linear_step`)
 and the command check, the compensator's kernel (fixed schemes with ``compiled()``), the
-platform's step as :meth:`PlatformBatch._advance <rths3d.platform.sim.PlatformBatch._advance>`
+platform's step as :meth:`PlatformBatch.advance <rths3d.platform.sim.PlatformBatch.advance>`
 takes it (inverse kinematics, set-point blocks, the servo's hold, ``mj_step``/``mj_forward``
 through MuJoCo's C API, :mod:`rths3d.platform.compiled`), the FTS and sampling, the sensor
 chain and the measurement noise (draws taken before the range, in the order the Python
@@ -198,7 +198,7 @@ def closed_range(n0, n1, w0, k0, num, mon, rec, comp, io, sens, znz, hist, plat)
                 return n - n0, 0
         cf[0](cp, cs, zr, zdr, zmr, ur)
         interface_command(u, idx, poses)
-        # the platform's step (PlatformBatch._advance, sample=True)
+        # the platform's step (PlatformBatch.advance, sample=True)
         if any_start:
             take_sample(start, True, qlive, legs_q, legs_f, Rlive, tq, tlq, tlf, tR, sf, st, C,
                         bo, reading)
@@ -443,7 +443,7 @@ class ClosedRange:
         return done
 
     def _finish(self, n: int, k: int, cmd: tuple, a: int, b: int) -> None:
-        """Step n of tests a … b−1 after the platform's part, as PlatformBatch._advance
+        """Step n of tests a … b−1 after the platform's part, as PlatformBatch.advance
         and StewartTransfer.step finish it (``k``: the platform's step count after it): its
         stops, the signals' row, the record row and the checks."""
         from ..stepping import post_step

@@ -3,7 +3,7 @@ known command series: the open-loop replay's and the tracking benchmarks' steppi
 
 :func:`track_batch` steps K tests through commanded poses and returns every measured
 channel per row, either one Python-driven step at a time (the readable reference:
-:meth:`PlatformBatch._advance` and its reads) or in compiled ranges
+:meth:`PlatformBatch.advance` and its reads) or in compiled ranges
 (:func:`rths3d.platform.compiled.run_range`), which hand the steps that need Python (a stop)
 back to the same reference step. Both give the same records (tests/test_platform_compiled.py).
 """
@@ -53,7 +53,7 @@ def _python_row(sim: PlatformBatch, r: int, lazy: bool, idx: np.ndarray, rec: Tr
     """Row r through the Python driver (the reference step)."""
     if lazy:
         # the forces of step r are read after step r + 1 (its start is step r's end:
-        # PlatformBatch._advance(sample=False)), the pose right after step r
+        # PlatformBatch.advance(sample=False)), the pose right after step r
         sim.advance(sample=False)
         sim.read_fts()
         sim.read_start(idx, z, f)

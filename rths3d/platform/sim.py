@@ -691,7 +691,7 @@ class PlatformBatch:
                        self._fts_torque, self.tare_wrench, z, f, self.rest_pose)
 
     def read_start(self, idx: np.ndarray, z: np.ndarray, f: np.ndarray) -> None:
-        """After ``_advance(sample=False)``: the achieved interface DOFs now, and the
+        """After ``advance(sample=False)``: the achieved interface DOFs now, and the
         interface wrench of the previous step's end-of-step sample (from the sensors, which
         the step evaluated at its start)."""
         quat_rows(self._fts_quat, self.fts_R_start)

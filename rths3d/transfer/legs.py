@@ -14,7 +14,7 @@ each leg's channel sees only its own signals,
 
 The compensated extension u replaces the desired one: the platform commands L = L_home + u,
 checks its stroke and speed limits on that, and writes the servo set-points as usual. The
-step runs in :meth:`rths3d.platform.sim.PlatformBatch._advance` through its ``leg_hook``, in
+step runs in :meth:`rths3d.platform.sim.PlatformBatch.advance` through its ``leg_hook``, in
 place of the inverse kinematics before the set-point write (one compiled pass computes the
 desired lengths with the platform's own anchors, their rates and the measured extensions);
 it allocates nothing.
