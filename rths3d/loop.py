@@ -41,8 +41,8 @@ import numpy as np
 from tqdm import tqdm
 
 from .config import Scene
-from .effects.blocks import kernel_tuple
 from .errors import ConfigError, NumericalFailure
+from .kernels import kernel_tuple
 from .metadata import record_metas
 from .numerical import NumericalFactory, max_batch, numerical_factory
 from .record import Record, RecordBuffer

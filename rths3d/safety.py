@@ -28,8 +28,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from .config import Scene
-from .effects.blocks import inline_njit, njit
 from .errors import SafetyStop
+from .kernels import inline_njit, njit
 
 __all__ = ["SafetyMonitor"]
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .effects.blocks import inline_njit, njit, run_chain
+from .kernels import inline_njit, njit, run_chain
 from .numerical._kernels import linear_step
 from .safety import check_command, check_measured
 

@@ -17,8 +17,8 @@ import scipy.signal
 
 import rths3d
 from rths3d.config import ExperimentConfig
-from rths3d.effects.blocks import Block, Chain, block_kernel
 from rths3d.experiment import PARTS, ExperimentalPart, register_part
+from rths3d.kernels import Block, Chain, block_kernel
 from rths3d.scene import scene_from_dict
 from rths3d.transfer import TRANSFERS, ChainTransfer, register_transfer
 

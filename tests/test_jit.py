@@ -1,4 +1,4 @@
-"""rths3d.jit: one compiled specialisation per structure of a range kernel's arguments,
+"""rths3d.kernels.layout: one compiled specialisation per structure of a range kernel's arguments,
 whatever the layout and write flags of its array views, with the same results."""
 
 import numba
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from numba import types
 
-from rths3d.effects.blocks import GainBlock, padded_kernels, run_chain
-from rths3d.jit import AnyLayout, kernel_type
+from rths3d.effects.blocks import GainBlock
+from rths3d.kernels import AnyLayout, kernel_type, padded_kernels, run_chain
 from rths3d.platform.compiled import flat
 
 
@@ -81,7 +81,7 @@ def test_ready_compiles_a_kernel_once_when_threads_race_for_it():
     kernel; none meets the closed dispatcher (compile() after disable_compile() raises)."""
     import threading
 
-    from rths3d.effects.blocks import BLOCK_SIG, block_kernel, ready
+    from rths3d.kernels import BLOCK_SIG, block_kernel, ready
 
     def _scale(p, s, u, y, w):
         for r in range(u.shape[0]):

@@ -58,3 +58,33 @@ def test_core_never_imports_viewer_or_cli():
         if pattern.search(path.read_text()):
             offenders.append(str(path.relative_to(root)))
     assert offenders == []
+
+
+MOVED = {
+    # old module → (new module, names that moved there)
+    "rths3d.jit": ("rths3d.kernels.layout", ("AnyLayout", "kernel_type")),
+    "rths3d.effects.blocks": ("rths3d.kernels", ("Block", "Chain", "run_chain", "run_blocks",
+                                                 "padded_kernels", "njit", "inline_njit",
+                                                 "block_kernel", "ready", "kernel_tuple",
+                                                 "KernelTuple", "BLOCK_SIG", "F1", "F2")),
+}
+
+
+@pytest.mark.parametrize("old", sorted(MOVED))
+def test_moved_names_still_import_from_their_old_module(old):
+    """Every name that moved to another module still imports from where it was, and is the
+    same object; a module that moved as a whole warns that it did (DeprecationWarning)."""
+    import importlib
+    import warnings
+
+    new, names = MOVED[old]
+    sys.modules.pop(old, None)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        before = importlib.import_module(old)
+    target = importlib.import_module(new)
+    for name in names:
+        assert getattr(before, name) is getattr(target, name), f"{old}.{name}"
+    if old == "rths3d.jit":
+        assert any(issubclass(w.category, DeprecationWarning) and "rths3d.kernels" in
+                   str(w.message) for w in caught)

@@ -34,8 +34,8 @@ import numpy as np
 
 from ..config import EffectConfig, ExperimentConfig, Scene
 from ..effects.base import REGISTRY, STAGES, Effect, get_effect
-from ..effects.blocks import Block
 from ..experiment import make_part
+from ..kernels import Block
 from ..platform.calibration import CalibratedGeometry
 from ..platform.geometry import DEFAULT_GEOMETRY, StewartGeometry
 from ..platform.model import ActuatorConfig, PlatformConfig, build_spec

@@ -38,8 +38,8 @@ import numba
 import numpy as np
 from numba import njit
 
-from ..effects.blocks import F1, F2, ready
 from ..errors import ConfigError, SafetyStop
+from ..kernels import F1, F2, ready
 
 __all__ = [
     "COMPENSATORS", "COMP_SIG", "BaseCompensator", "Compensator", "CompensatorConfig",

@@ -11,68 +11,36 @@ kernel serves the compiled loop (:mod:`rths3d.stepping`), the Python loop (a blo
 callable on (K, n) arrays) and whole recorded signals (:func:`run_blocks`, used by the
 diagnosis to apply an effect to a replay), so each piece of physics exists once.
 
-A :class:`Chain` applies blocks in order; its kernels are called as first-class functions
-by one compiled caller (:func:`run_chain`), so a new block needs no new loop code.
+The block machinery (:class:`Block`, :class:`Chain`, :func:`run_chain`, :func:`run_blocks`)
+and the project's numba settings live in :mod:`rths3d.kernels`; they are importable from here
+too, as before.
 """
 
 from __future__ import annotations
 
 import math
-import threading
-import warnings
 from collections.abc import Sequence
-from typing import Any, ClassVar
+from typing import Any
 
-import numba
 import numpy as np
-from numba import typeof, types
-from numba.extending import typeof_impl
 
-__all__ = ["BLOCK_SIG", "Block", "Chain", "DelayBlock", "GainBlock", "KernelTuple", "LTIBlock",
-           "LagBlock", "NoiseBlock", "OffsetBlock", "PlayBlock", "RateLimitBlock", "block_kernel",
-           "inline_njit", "kernel_tuple", "njit", "padded_kernels", "ready", "run_chain",
-           "run_blocks"]
+from ..kernels.chain import Block, Chain, padded_kernels, run_blocks, run_chain
+from ..kernels.compiler import (
+    BLOCK_SIG,
+    F1,
+    F2,
+    KernelTuple,
+    block_kernel,
+    inline_njit,
+    kernel_tuple,
+    njit,
+    ready,
+)
 
-# chains call their blocks' kernels as first-class functions (one compiled caller for every
-# sequence of blocks); numba still labels that feature experimental
-warnings.filterwarnings("ignore", category=numba.NumbaExperimentalFeatureWarning)
-
-njit = numba.njit(cache=True, nogil=True)
-"""numba's compiler with the project's settings (on-disk cache, no GIL)."""
-inline_njit = numba.njit(cache=True, nogil=True, inline="always")
-"""The same for small per-step helpers, inlined into their compiled callers."""
-
-F2 = types.float64[:, ::1]
-F1 = types.float64[::1]
-BLOCK_SIG = types.void(F2, F2, F1, F1, F1)
-"""Signature of every block kernel: (params, state, u, y, w). Part models use the same
-shape: (params, state, z_from, z_to, F)."""
-
-
-def block_kernel(fn: Any) -> Any:
-    """``fn`` as a block kernel, compiled for :data:`BLOCK_SIG` on first use
-    (:func:`ready`): loading a compiled kernel from the on-disk cache costs ≈ 0.1 s, and
-    importing the library (every command line call, every sweep worker) loaded all of them
-    whether it stepped a block or not."""
-    return numba.njit(cache=True, nogil=True)(fn)
-
-
-_READY = threading.Lock()
-
-
-def ready(kernel: Any, signature: Any = BLOCK_SIG) -> Any:
-    """``kernel`` (a :func:`block_kernel`, or another kernel of one fixed signature)
-    compiled for ``signature`` and closed to others, as a kernel with its signature given
-    up front is: one machine code, a first-class function the compiled chains can hold.
-    Every user of a kernel calls this first (a block's constructor does)."""
-    if not kernel.signatures:
-        # threads build blocks at once (the diagnosis' replays): one compiles, the others
-        # find it compiled (compile() after disable_compile() raises)
-        with _READY:
-            if not kernel.signatures:
-                kernel.compile(signature)
-                kernel.disable_compile()
-    return kernel
+__all__ = ["BLOCK_SIG", "F1", "F2", "Block", "Chain", "DelayBlock", "GainBlock", "KernelTuple",
+           "LTIBlock", "LagBlock", "NoiseBlock", "OffsetBlock", "PlayBlock", "RateLimitBlock",
+           "block_kernel", "inline_njit", "kernel_tuple", "njit", "padded_kernels", "ready",
+           "run_chain", "run_blocks"]
 
 
 def _rows(value: Any, R: int) -> np.ndarray:
@@ -83,46 +51,6 @@ def _rows(value: Any, R: int) -> np.ndarray:
     if a.size != R:
         raise ValueError(f"{a.size} values given for {R} rows")
     return a.copy()
-
-
-class Block:
-    """Base class: a stateful per-step signal block over R = K·n rows (see module docstring).
-
-    Subclasses set :attr:`kernel` (a numba function), fill ``params`` and ``state0`` in their
-    constructor and may set :attr:`uses_noise`.
-    """
-
-    kernel: ClassVar[Any]
-    uses_noise: ClassVar[bool] = False
-
-    def __init__(self, K: int, n: int, params: np.ndarray, state0: np.ndarray):
-        ready(type(self).kernel)
-        self.K, self.n = int(K), int(n)
-        self.params = np.ascontiguousarray(params, dtype=float)
-        self.state0 = np.ascontiguousarray(state0, dtype=float)
-        self.state = self.state0.copy()
-        self._y = np.zeros((self.K, self.n))
-        self._w = np.zeros(self.K * self.n)
-
-    @property
-    def rows(self) -> int:
-        return self.K * self.n
-
-    def reset(self) -> None:
-        self.state[:] = self.state0
-
-    def draw(self, out: np.ndarray) -> None:
-        """Fill ``out`` (steps, R) with the standard-normal draws of the next steps (noise
-        blocks; others leave it as it is)."""
-
-    def __call__(self, u: np.ndarray) -> np.ndarray:
-        """One step on (K, n) inputs; returns the (K, n) outputs (a buffer of the block)."""
-        w = self._w
-        if self.uses_noise:
-            self.draw(w[None, :])
-        type(self).kernel(self.params, self.state, np.ascontiguousarray(u).reshape(-1),
-                          self._y.reshape(-1), w)
-        return self._y
 
 
 # ---------------------------------------------------------------------------- kernels
@@ -352,144 +280,6 @@ class LTIBlock(Block):
             params[r, 1 + m * m + 2 * m] = float(D)
         super().__init__(K, n, params, np.zeros((R, 2 * m)))
         self.order = m
-
-
-# ---------------------------------------------------------------------------- chains
-@block_kernel
-def _pass_kernel(p, s, u, y, w):
-    for r in range(u.shape[0]):
-        y[r] = u[r]
-
-
-@njit
-def run_chain(fns, ps, ss, u, y, w):
-    """Apply the block kernels ``fns`` in order to the rows ``u`` (outputs in ``y``)."""
-    fns[0](ps[0], ss[0], u, y, w)
-    for i in range(1, len(fns)):
-        fns[i](ps[i], ss[i], y, y, w)
-
-
-class KernelTuple(tuple):
-    """Kernels of one signature handed to a compiled range loop, typed once per distinct
-    tuple of kernels (:func:`kernel_tuple`). numba types a plain tuple of dispatchers as
-    first-class functions by inspecting each kernel on every call of the loop (≈ 0.5 ms per
-    call: 8 % of a 10 s one-DOF test); the type depends only on the kernels."""
-
-
-_KERNEL_TYPES: dict[tuple, Any] = {}
-
-
-@typeof_impl.register(KernelTuple)
-def _typeof_kernel_tuple(val: KernelTuple, c: Any) -> Any:
-    key = tuple(val)  # the kernels themselves (kept alive by the key)
-    ty = _KERNEL_TYPES.get(key)
-    if ty is None:
-        ty = _KERNEL_TYPES[key] = typeof(tuple(val), c.purpose)
-    return ty
-
-
-def kernel_tuple(kernels: Sequence[Any]) -> KernelTuple:
-    """``kernels`` (compiled for one signature, :func:`ready`) as the compiled loop's
-    argument, typed once (:class:`KernelTuple`); a loop takes it as it takes a tuple."""
-    return KernelTuple(kernels)
-
-
-_EMPTY = np.zeros((0, 0))
-
-
-def padded_kernels(fns: tuple, params: tuple, states: tuple) -> tuple[tuple, tuple, tuple]:
-    """A chain's kernels and their arguments padded with pass-through blocks to 1, 4, 8, …
-    blocks: a compiled caller is specialised per number of blocks (≈ 40 s of compilation
-    each for the platform's range kernels), and a pass-through block costs one copy of the
-    rows per step (run_chain hands it y → y, bit for bit)."""
-    ready(_pass_kernel)
-    n = len(fns)
-    m = 1 if n <= 1 else max(4, 1 << (n - 1).bit_length())
-    pad = m - n
-    return (fns + (_pass_kernel,) * pad, params + (_EMPTY,) * pad,
-            states + (_EMPTY,) * pad)
-
-
-class Chain:
-    """Blocks applied in order (an actuator or sensor chain), callable on (K, n) arrays.
-
-    ``fns``, ``params``, ``states``: the kernels and their argument tuples, for the compiled
-    loop (an empty chain holds one pass-through kernel). At most one block may draw noise
-    (its draws are the chain's ``w``).
-    """
-
-    def __init__(self, K: int, n: int, blocks: Sequence[Block]):
-        self.K, self.n = int(K), int(n)
-        self.blocks = list(blocks)
-        noisy = [b for b in self.blocks if b.uses_noise]
-        if len(noisy) > 1:
-            raise ValueError("a chain takes at most one noise block")
-        self.noise = noisy[0] if noisy else None
-        if self.blocks:
-            self.fns = tuple(type(b).kernel for b in self.blocks)
-            self.params = tuple(b.params for b in self.blocks)
-            self.states = tuple(b.state for b in self.blocks)
-        else:
-            self.fns, self.params, self.states = (ready(_pass_kernel),), (_EMPTY,), (_EMPTY,)
-        self._y = np.zeros((self.K, self.n))
-        self._w = np.zeros(self.K * self.n)
-
-    @property
-    def empty(self) -> bool:
-        return not self.blocks
-
-    def reset(self) -> None:
-        for b in self.blocks:
-            b.reset()
-
-    def kernel_group(self) -> tuple:
-        """The chain as a compiled kernel takes it: its blocks' kernels, parameters and
-        states padded to a fixed count (:func:`padded_kernels`), the noise work array (R,)
-        and whether the chain is empty."""
-        return (*padded_kernels(self.fns, self.params, self.states), self._w, self.empty)
-
-    def draw(self, out: np.ndarray) -> None:
-        """Fill ``out`` (steps, R) with the noise draws of the next steps (if any)."""
-        if self.noise is not None:
-            self.noise.draw(out)
-
-    def __call__(self, u: np.ndarray) -> np.ndarray:
-        if not self.blocks:
-            return u
-        if self.noise is not None:
-            self.noise.draw(self._w[None, :])
-        # from Python: one direct call per block (passing the tuple of kernels to
-        # run_chain costs its typing, ~0.5 ms, on every call; the compiled loop passes it
-        # once per run)
-        y = self._y.reshape(-1)
-        x = np.ascontiguousarray(u).reshape(-1)
-        for f, p, s in zip(self.fns, self.params, self.states, strict=True):
-            f(p, s, x, y, self._w)
-            x = y
-        return self._y
-
-
-@njit
-def _run_signal(fns, ps, ss, u, y, w):
-    for n in range(u.shape[0]):
-        run_chain(fns, ps, ss, u[n], y[n], w[n % w.shape[0]])
-
-
-def run_blocks(blocks: Sequence[Block], u: np.ndarray) -> np.ndarray:
-    """Apply fresh blocks to a whole signal ``u`` ((N,) or (N, rows)), step by step, in
-    one compiled call; returns the output signal of the same shape."""
-    x = np.asarray(u, dtype=float)
-    flat = x.reshape(len(x), -1)
-    R = flat.shape[1]
-    chain = Chain(1, R, blocks)
-    chain.reset()
-    w = np.zeros((1, R))
-    if chain.noise is not None:
-        w = np.empty((len(x), R))
-        chain.draw(w)
-    y = np.empty_like(flat)
-    _run_signal(chain.fns, chain.params, chain.states, np.ascontiguousarray(flat), y, w)
-    return y.reshape(x.shape)
 
 
 def lag_alpha(dt: float, time_constant: float) -> float:

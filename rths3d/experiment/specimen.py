@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..effects.blocks import block_kernel, ready
+from ..kernels import block_kernel, ready
 
 
 @block_kernel

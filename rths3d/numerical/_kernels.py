@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..effects.blocks import njit
+from ..kernels import njit
 
 __all__ = ["linear_step", "load_terms_1dof"]
 

@@ -28,8 +28,7 @@ import numba
 import numpy as np
 from numba import literal_unroll, types
 
-from ..effects.blocks import inline_njit, njit, padded_kernels, run_chain
-from ..jit import AnyLayout
+from ..kernels import AnyLayout, inline_njit, njit, padded_kernels, run_chain
 from ..numerical._kernels import linear_step
 from ..safety import check_command, check_measured
 from ..stepping import record_row

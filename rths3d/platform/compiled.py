@@ -25,7 +25,7 @@ import numba
 from numba import types
 from numba.extending import intrinsic
 
-from ..effects.blocks import njit, run_chain
+from ..kernels import njit, run_chain
 from .kernels import (
     copy_fts,
     fts_distort,

@@ -11,7 +11,7 @@ import math
 import numba
 import numpy as np
 
-from ..effects.blocks import njit
+from ..kernels import njit
 
 __all__ = ["copy_fts", "end_ramp", "fts_distort", "interface_command", "leg_lengths_of",
            "leg_setpoints", "measured_over", "plate_pose", "quat_rows", "ramp_ctrl",

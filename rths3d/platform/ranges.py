@@ -81,7 +81,7 @@ def track_batch(sim: PlatformBatch, poses: np.ndarray, idx: np.ndarray, *,
     DOFs of ``z``/``f``. ``lazy``: skip the end-of-step ``mj_forward`` and read each step's
     forces at its successor's start (exact for a ramped set-point; one evaluation per step
     less). ``compiled``: compiled ranges where :func:`compiled_ok` (else Python)."""
-    from ..jit import AnyLayout
+    from ..kernels import AnyLayout
     from .compiled import run_range
 
     P = np.asarray(poses, dtype=float)

@@ -45,8 +45,9 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from ..effects.blocks import Block, Chain, DelayBlock, LagBlock
+from ..effects.blocks import DelayBlock, LagBlock
 from ..errors import ConfigError, SafetyStop
+from ..kernels import Block, Chain
 from .backend import (
     _MAXVAL,
     StaticState,

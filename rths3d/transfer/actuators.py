@@ -22,7 +22,6 @@ from pathlib import Path
 import numpy as np
 
 from ..effects.blocks import (
-    Chain,
     DelayBlock,
     GainBlock,
     LagBlock,
@@ -31,6 +30,7 @@ from ..effects.blocks import (
     OffsetBlock,
 )
 from ..errors import ConfigError
+from ..kernels import Chain
 
 DEFAULT_TF_OMEGA = 2 * math.pi * 50.0
 """Fallback actuator model: second-order lag, 50 Hz, ζ = 0.7 (≈ 4.5 ms delay at low f, the

@@ -18,8 +18,8 @@ import numpy as np
 
 from ..compensation import BaseCompensator
 from ..config import Scene
-from ..effects.blocks import Chain
 from ..experiment import build_part_model, part_class, uses_numpy
+from ..kernels import Chain
 from .base import CompiledTransfer, RecordSignal, effect_on, sensor_key, setting
 from .commands import compensation_record, compensator_key, compensator_of
 from .sensor import sensor_chain

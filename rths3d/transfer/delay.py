@@ -8,7 +8,8 @@ from typing import Any
 import numpy as np
 
 from ..config import Scene
-from ..effects.blocks import Chain, DelayBlock
+from ..effects.blocks import DelayBlock
+from ..kernels import Chain
 from .base import register_transfer
 from .chain import ChainTransfer
 

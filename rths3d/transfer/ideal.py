@@ -6,7 +6,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from ..config import Scene
-from ..effects.blocks import Chain
+from ..kernels import Chain
 from .base import register_transfer
 from .chain import ChainTransfer
 

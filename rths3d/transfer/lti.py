@@ -10,7 +10,8 @@ from typing import Any
 import numpy as np
 
 from ..config import Scene
-from ..effects.blocks import Block, Chain, DelayBlock, LTIBlock
+from ..effects.blocks import DelayBlock, LTIBlock
+from ..kernels import Block, Chain
 from .actuators import (
     default_transfer_function,
     default_transport_delay,

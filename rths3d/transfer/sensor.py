@@ -16,14 +16,13 @@ import numpy as np
 
 from ..config import Scene
 from ..effects.blocks import (
-    Block,
-    Chain,
     DelayBlock,
     GainBlock,
     LagBlock,
     NoiseBlock,
     OffsetBlock,
 )
+from ..kernels import Block, Chain
 
 __all__ = ["sensor_chain"]
 
