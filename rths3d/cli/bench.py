@@ -95,7 +95,7 @@ def init(
     from ..errors import ConfigError
     from ..figures import check_output
     from ..scene import load_scene
-    from ..scene_bench import bench_scene_text
+    from ..scene.bench import bench_scene_text
 
     if out.suffix.lower() != ".toml":
         raise ConfigError("OUT", str(out), "the scene must end in .toml")

@@ -12,7 +12,7 @@ from ._output import Keeper, write_text
 
 def _bench_origin(sc, scene: str | None, meta: dict) -> list[str]:
     """The header lines: where the bench came from, part by part (scene or default)."""
-    from ..scene_bench import bench_origin
+    from ..scene.bench import bench_origin
 
     if scene:
         source = f"the scene {scene}"

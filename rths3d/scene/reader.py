@@ -1,4 +1,4 @@
-"""Scenes: the frozen, validated description of one vRTHS test, loaded from TOML.
+"""Reading a scene: TOML (or its mapping) → the frozen, validated :class:`Scene`.
 
 A scene names the numerical substructure (``M, C, K`` and the interface map Γ), its
 excitation, the experimental part, the transfer system, the force sensor and the safety
@@ -12,22 +12,20 @@ Single-DOF substructures may give scalars ``m, c, k`` instead of matrices ``M, C
 
 from __future__ import annotations
 
-import functools
 import math
 import os
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, fields, replace
+from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .compensation import COMPENSATORS, compensator_names, config_from_dict
-from .config import (
+from ..compensation import COMPENSATORS, compensator_names, config_from_dict
+from ..config import (
     COMP_INIT,
     COMPENSATE,
-    EXPERIMENT_EXTRA,
     NUMERICAL_EXTRA,
     EffectConfig,
     ExcitationConfig,
@@ -35,45 +33,26 @@ from .config import (
     Matrix,
     NetworkConfig,
     NumericalConfig,
-    SafetyConfig,
     SafetyLimits,
     Scene,
     SensorConfig,
     TransferConfig,
 )
-from .errors import ConfigError
-from .experiment import part_class, part_kinds
-from .numerical import numerical_class
-from .record import DOFS
-from .scene_bench import (
-    controller_dict,
+from ..errors import ConfigError
+from ..experiment import part_class, part_kinds
+from ..numerical import numerical_class
+from ..record import DOFS
+from ..transfer import transfer_class, transfer_kinds
+from ..transfer.commands import compensator_params
+from .bench import (
     controller_table,
     experiment_extra,
-    platform_dict,
     platform_geometry,
     platform_table,
 )
-from .scene_checks import check_coupled_stability, check_reach
-from .transfer import transfer_class, transfer_kinds
-from .transfer.commands import compensator_params
+from .checks import check_coupled_stability, check_reach
 
-__all__ = [
-    "EffectConfig",
-    "ExcitationConfig",
-    "ExperimentConfig",
-    "NumericalConfig",
-    "SafetyConfig",
-    "Scene",
-    "SensorConfig",
-    "TransferConfig",
-    "apply_overrides",
-    "load_scene",
-    "scene_from_dict",
-    "scene_to_dict",
-    "scene_to_toml",
-    "scene_with",
-    "transfer_kinds",
-]
+__all__ = ["apply_overrides", "load_scene", "scene_from_dict", "transfer_kinds"]
 
 EXCITATION_KINDS = ("none", "force", "support", "ground")
 SIGNALS = ("sine", "raised_cosine", "file", "array")
@@ -420,7 +399,7 @@ EFFECT_KEYS = ("name", "value", "leg", "axis")
 
 def _effects(raw: Any) -> tuple[EffectConfig, ...]:
     """The ``[[effect]]`` tables: name, value (SI unit of the effect), leg, axis."""
-    from .effects import get_effect
+    from ..effects import get_effect
 
     if isinstance(raw, Mapping):
         raw = [raw]
@@ -469,7 +448,7 @@ def _effects(raw: Any) -> tuple[EffectConfig, ...]:
 
 def _set_effect(raw: dict[str, Any], label: str, value: Any) -> None:
     """Set (or add) the ``[[effect]]`` entry of ``label`` (``name[.leg<i>][.<axis>]``)."""
-    from .effects import parse_label
+    from ..effects import parse_label
 
     name, leg, axis = parse_label(label)
     tables = [dict(t) for t in raw.get("effect", [])]
@@ -540,7 +519,7 @@ def load_scene(path: str | Path, overrides: Sequence[str] | Mapping[str, Any] = 
     """
     p = Path(path)
     if not p.exists() and p.suffix == "":
-        cand = Path(__file__).resolve().parents[1] / "scenes" / f"{p.name}.toml"
+        cand = Path(__file__).resolve().parents[2] / "scenes" / f"{p.name}.toml"
         if cand.exists():
             p = cand
     if not p.exists():
@@ -572,159 +551,3 @@ def _relative_to(raw: dict[str, Any], folder: Path) -> dict[str, Any]:
             if not f.is_absolute():
                 raw = {**raw, sec: {**tab, key: os.path.normpath(folder.resolve() / f)}}
     return raw
-
-
-def _section_items(section: Any) -> tuple[tuple[str, Any], ...]:
-    """The fields of a section (a frozen dataclass) as (name, value) pairs, NaN left out:
-    one :func:`dataclasses.asdict` per distinct section (a batch's tests share most)."""
-    try:
-        return _section_items_cached(section)
-    except TypeError:  # a section with an unhashable value
-        return _section_items_of(section)
-
-
-def _section_items_of(section: Any) -> tuple[tuple[str, Any], ...]:
-    return tuple((k, v) for k, v in asdict(section).items()
-                 if not (isinstance(v, float) and math.isnan(v)))
-
-
-_section_items_cached = functools.lru_cache(maxsize=256)(_section_items_of)
-
-
-def scene_to_dict(scene: Scene) -> dict[str, Any]:
-    """The raw TOML-shaped mapping of a scene (inverse of :func:`scene_from_dict`)."""
-    out: dict[str, Any] = {"name": scene.name, "dofs": list(scene.dofs), "dt": scene.dt,
-                           "duration": scene.duration}
-    nm = scene.numerical
-    section = getattr(numerical_class(nm.kind), "section", None)
-    if section is not None:  # a registered kind writes its own table
-        out["numerical"] = section(nm)
-    elif nm.n == 1:
-        out["numerical"] = {"m": nm.M[0][0], "c": nm.C[0][0], "k": nm.K[0][0],
-                            "gamma": [list(r) for r in nm.gamma],
-                            "integrator": nm.integrator}
-    else:
-        out["numerical"] = {"M": [list(r) for r in nm.M], "C": [list(r) for r in nm.C],
-                            "K": [list(r) for r in nm.K], "gamma": [list(r) for r in nm.gamma],
-                            "integrator": nm.integrator}
-    for sec in ("experiment", "excitation", "transfer", "sensor", "safety"):
-        out[sec] = {k: (list(v) if isinstance(v, tuple) else v)
-                    for k, v in _section_items(getattr(scene, sec))
-                    if not (sec == "experiment" and k in EXPERIMENT_EXTRA and not v)}
-    if "inertia_tensor" in out["experiment"]:
-        out["experiment"]["inertia"] = out["experiment"].pop("inertia_tensor")
-    net = {k: (list(map(list, v)) if k == "element_map" else v)
-           for k, v in asdict(scene.network).items()
-           if v != getattr(NetworkConfig(), k)}
-    if net:
-        out["network"] = net
-    for sec, tab in (("platform", platform_dict(scene.platform)),
-                     ("controller", controller_dict(scene.controller))):
-        if tab:
-            out[sec] = tab
-    tr = out["transfer"]
-
-    def raw(v: Any) -> Any:
-        return list(v) if isinstance(v, tuple) else v
-
-    tr["compensator"] = {k: ({kk: raw(vv) for kk, vv in v} if k in COMPENSATORS else raw(v))
-                         for k, v in scene.transfer.compensator}
-    if not tr["compensator"]:
-        del tr["compensator"]
-    if scene.effects:
-        tabs = []
-        for e in scene.effects:
-            t: dict[str, Any] = {"name": e.name, "value": e.value}
-            if e.leg >= 0:
-                t["leg"] = e.leg
-            if e.axis:
-                t["axis"] = e.axis
-            tabs.append(t)
-        out["effect"] = tabs
-    return out
-
-
-def scene_with(scene: Scene, overrides: Mapping[str, Any] | Sequence[str],
-               _raw: dict | None = None) -> Scene:
-    """A validated copy of ``scene`` with dotted-key overrides (e.g. ``{"numerical.k": 5e3}``).
-
-    ``_raw``: the scene's :func:`scene_to_dict`, when the caller applies many overrides to
-    one scene (computed once)."""
-    if not overrides:
-        return scene
-    fast = _with_numerical_scalars(scene, overrides)
-    if fast is not None:
-        return fast
-    raw = dict(_raw) if _raw is not None else scene_to_dict(scene)
-    nm = raw["numerical"] = dict(raw["numerical"])
-    items = overrides.items() if isinstance(overrides, Mapping) else \
-        [tuple(s.split("=", 1)) for s in overrides]
-    for key, _ in items:
-        # single-DOF scenes accept both m/M, c/C, k/K
-        base, _, leaf = str(key).partition(".")
-        if base == "numerical" and leaf in ("M", "C", "K") and leaf.lower() in nm:
-            nm.pop(leaf.lower())
-        if base == "numerical" and leaf in ("m", "c", "k") and leaf.upper() in nm:
-            nm.pop(leaf.upper())
-    raw = apply_overrides(raw, overrides)
-    return scene_from_dict(raw, name=scene.name, source=scene.source)
-
-
-_NUMERICAL_SCALARS = frozenset({"numerical.m", "numerical.c", "numerical.k"})
-
-
-def _with_numerical_scalars(scene: Scene, overrides: Mapping[str, Any] | Sequence[str]
-                            ) -> Scene | None:
-    """:func:`scene_with` when only the m, c or k of a one-DOF numerical substructure
-    change (a sweep's most common overrides): the numerical section validated by the same
-    function as a whole scene (:func:`_numerical`, with the coupled-stability check of
-    ``central_difference``), every other section kept as it is (nothing else depends on
-    them); None for any other override. A batch of 512 tests validated its scenes in
-    0.13 s, now ≈ 0.04 s."""
-    if not isinstance(overrides, Mapping) or scene.numerical.n != 1 or \
-            not scene.numerical.has_matrices or not _NUMERICAL_SCALARS.issuperset(overrides):
-        return None
-    nm = scene.numerical
-    sec: dict[str, Any] = {"m": nm.M[0][0], "c": nm.C[0][0], "k": nm.K[0][0],
-                           "gamma": [list(r) for r in nm.gamma], "integrator": nm.integrator}
-    for key, value in overrides.items():
-        sec[key[len("numerical."):]] = value
-    num = _numerical({"numerical": sec}, len(scene.dofs), scene.dofs)
-    if num.integrator == "central_difference":
-        check_coupled_stability(num, scene.experiment, scene.dofs, scene.dt)
-    return replace(scene, numerical=num)
-
-
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if math.isinf(v):
-            return "inf" if v > 0 else "-inf"
-        return repr(v)
-    if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(v, list | tuple):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    raise TypeError(f"no TOML form for {type(v).__name__}")
-
-
-def scene_to_toml(scene: Scene) -> str:
-    """The scene as TOML text that :func:`load_scene` reads back to the same scene (its
-    ``[[effect]]`` tables included)."""
-    d = scene_to_dict(scene)
-    lines = [f"# rths3d scene {scene.name!r}"]
-    for key in ("name", "dofs", "dt", "duration"):
-        lines.append(f"{key} = {_toml_value(d[key])}")
-    for sec in ("numerical", "excitation", "experiment", "transfer", "sensor", "safety",
-                "platform", "controller", "network"):
-        if sec not in d:
-            continue
-        lines += ["", f"[{sec}]"]
-        lines += [f"{k} = {_toml_value(v)}" for k, v in d[sec].items()]
-    for tab in d.get("effect", []):
-        lines += ["", "[[effect]]"]
-        lines += [f"{k} = {_toml_value(v)}" for k, v in tab.items()]
-    return "\n".join(lines) + "\n"
