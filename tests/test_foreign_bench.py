@@ -8,7 +8,9 @@ noise), given only the record file and the scene a user would write from the ben
 - Null: described correctly, only noise (validation ≤ 1.2 noise units, counted in the noise
   the bench added);
 - Described wrong (one error each: hold mode, sampling instant, payload mass, centre-of-mass
-  height, one anchor): the error found first, validation ≤ 1.2 after it;
+  height, one anchor; on bench D, whose servo lag sits after the hold: the lag's place not
+  stated, the lag or the delay stated twice what the bench has): the error found first,
+  validation ≤ 1.2 after it;
 - a matrix of per-leg, geometry, FTS and payload effects on such a bench.
 
 The full matrix with its figures: ``python examples/66_foreign_bench.py``.
@@ -135,7 +137,22 @@ def other_geometry_bench() -> Spec:
                 _rigid_xml(m, com, inertia), servo={"kp": 3.0e5, "kv": 2.5e3})
 
 
-BENCHES = {"rigid": rigid_bench, "contact": contact_bench, "geometry": other_geometry_bench}
+SERVO_LAG = 0.003
+"""s: the first-order lag of bench D's servo, continuous after the hold."""
+
+
+def servo_bench() -> Spec:
+    """Bench D (bench A): its servo with a continuous first-order lag of 3 ms after the
+    zero-order hold (a valve or amplifier), integrated at the bench's own physics step —
+    another convention than the bench model's set-point filter before the hold."""
+    s = rigid_bench()
+    return Spec("servo", s.base, s.top, s.home_height, s.masses, s.fts_height, s.part,
+                s.part_xml, servo={"kp": 2.0e5, "kv": 2.0e3, "timeconst": SERVO_LAG,
+                                   "lag": "servo"})
+
+
+BENCHES = {"rigid": rigid_bench, "contact": contact_bench, "geometry": other_geometry_bench,
+           "servo": servo_bench}
 
 
 # ---------------------------------------------------------------------------- the scene
@@ -160,7 +177,7 @@ def description(spec: Spec) -> dict:
                      "home_height": spec.home_height, **spec.masses,
                      "fts_height": spec.fts_height,
                      "fts_pose": [0.0, 0.0, spec.fts_height, 0.0, 0.0, 0.0]},
-        "controller": {**spec.servo, "timeconst": 0.0, "delay": 0.001, "hold": "zoh",
+        "controller": {"timeconst": 0.0, "delay": 0.001, **spec.servo, "hold": "zoh",
                        "sample": "start", "feedforward": "backward", "gravity": "measured"},
         "transfer": {"kind": "stewart"},
         "experiment": dict(spec.part),
@@ -202,6 +219,8 @@ def make_record(folder: Path, spec: Spec, *, duration: float = 2.5, seed: int = 
                       piston_mass=spec.masses["piston_mass"],
                       fts_pose=(0.0, 0.0, spec.fts_height, 0.0, 0.0, 0.0),
                       kp=spec.servo["kp"], kv=spec.servo["kv"], delay_samples=1,
+                      servo_lag=(spec.servo.get("timeconst", 0.0)
+                                 if spec.servo.get("lag") == "servo" else 0.0),
                       part_xml=spec.part_xml, world_xml=spec.world_xml)
     fb = fb.with_(**truth)
     poses = multisine(duration, DT, seed=seed, **spec.poses)
@@ -299,20 +318,22 @@ def _diagnose(folder: Path, spec: Spec, desc: dict, rec_path: Path, rounds: int 
 
 
 @pytest.mark.parametrize("name", [
-    "rigid", pytest.param("contact", marks=pytest.mark.slow),
+    "rigid", "servo", pytest.param("contact", marks=pytest.mark.slow),
     pytest.param("geometry", marks=[pytest.mark.slow, pytest.mark.skipif(
         not os.environ.get("RTHS3D_FULL_MATRIX"),
         reason="bench C's null runs with RTHS3D_FULL_MATRIX=1 (its geometry is checked in "
                "the suite by bench A's anchor case and the explicit-anchors test)")])])
 def test_null_described_right_is_only_noise(tmp_path, name):
-    """Null: the bench described right (geometry, masses, servo, conventions, part): only
-    noise — nothing proposed, validation error ≤ 1.2 units of the noise the bench added."""
+    """Null: the bench described right (geometry, masses, servo, conventions, part; bench D
+    with its lag's place stated, ``lag = "servo"``): only noise — nothing proposed, no
+    statement revised, validation error ≤ 1.2 units of the noise the bench added."""
     spec = BENCHES[name]()
     rec = make_record(tmp_path, spec, seed=11)
     if name == "contact":  # the specimen meets its surface during the test
         assert LAST_RUN["contact_fraction"] > 0.02
     diag, res = _diagnose(tmp_path, spec, description(spec), rec, rounds=1)
     assert res[0].proposal is None, res[0].proposal
+    assert diag.revisions == []
     assert validation_error(diag) <= 1.2
 
 
@@ -341,12 +362,24 @@ def _wrong(spec: Spec, error: str) -> tuple[dict, tuple[str, ...]]:
         base[2, 0] += 1.5e-3
         d["platform"]["base_anchors"] = base.tolist()
         return d, ("kinematic_calibration", "base_anchor.leg2")
+    if error == "lag_place":  # a user who does not know where the lag sits: not stated
+        del d["controller"]["lag"]
+        return d, ("scene:controller.lag=servo",)
+    if error == "timeconst":  # stated twice what the bench has
+        d["controller"][error] = 2 * d["controller"][error]
+        return d, (f"scene:transfer.{error}=",)
+    if error == "delay":
+        # stated 1.5 times what the bench has (stated twice, one sample too many, it is
+        # exactly confounded with sampling at the end: docs/diagnosis.md)
+        d["controller"][error] = 1.5 * d["controller"][error]
+        return d, (f"scene:transfer.{error}=",)
     raise ValueError(error)
 
 
 WRONG = [("rigid", e) for e in ("hold", "sample", "mass", "com_height", "anchor")] + \
     [("contact", e) for e in ("hold", "sample", "anchor")] + \
-    [("geometry", e) for e in ("hold", "sample", "mass", "com_height", "anchor")]
+    [("geometry", e) for e in ("hold", "sample", "mass", "com_height", "anchor")] + \
+    [("servo", e) for e in ("lag_place", "timeconst", "delay")]
 
 
 def described_wrong_case(folder: Path, name: str, error: str, seed: int = 21) -> dict:
@@ -362,7 +395,9 @@ def described_wrong_case(folder: Path, name: str, error: str, seed: int = 21) ->
     first = res[0].proposal.effect if res[0].proposal is not None else None
     return {"bench": name, "error": error, "first": first,
             "found": first is not None and first.startswith(found),
-            "error_val": validation_error(diag), "revisions": diag.revisions}
+            "error_val": validation_error(diag), "revisions": diag.revisions,
+            "other_revisions": [r["label"] for r in diag.revisions
+                                if not ("scene:" + r["label"]).startswith(found)]}
 
 
 FULL = pytest.mark.skipif(
@@ -370,7 +405,7 @@ FULL = pytest.mark.skipif(
     reason="the rest of the foreign-bench figures (1–2 min each): RTHS3D_FULL_MATRIX=1 runs them "
            "here, examples/66_foreign_bench.py prints them all; the suite keeps the cases "
            "measured on 2026-11-27")
-MEASURED_WRONG = {("rigid", "hold"), ("rigid", "anchor")}
+MEASURED_WRONG = {("rigid", "hold"), ("rigid", "anchor"), ("servo", "lag_place")}
 """Described-wrong cases the suite runs (the whole set passes with RTHS3D_FULL_MATRIX=1,
 measured 2026-11-27; docs/diagnosis.md)."""
 MEASURED_MATRIX = {"coulomb_friction.leg2"}
@@ -378,10 +413,10 @@ MEASURED_MATRIX = {"coulomb_friction.leg2"}
 
 
 @pytest.mark.parametrize("name,error", [
-    ("rigid", "hold"),
+    ("rigid", "hold"), ("servo", "lag_place"),
     *[pytest.param(n, e, marks=[pytest.mark.slow,
                                 *([] if (n, e) in MEASURED_WRONG else [FULL])])
-      for n, e in WRONG if (n, e) != ("rigid", "hold")]])
+      for n, e in WRONG if (n, e) not in (("rigid", "hold"), ("servo", "lag_place"))]])
 def test_described_wrong_is_found_and_fixed(tmp_path, name, error):
     """Described wrong (one error): the error is found first and the validation error falls
     to ≤ 1.2 units of the bench's noise; a description error is reported as the revised
@@ -392,6 +427,8 @@ def test_described_wrong_is_found_and_fixed(tmp_path, name, error):
     if out["first"].startswith("scene:"):
         key = out["first"].removeprefix("scene:").split("=")[0]
         assert any(key in r["label"] for r in out["revisions"]), out
+        if name == "servo":  # no other statement is revised on the way to noise
+            assert [r["label"].split("=")[0] for r in out["revisions"]] == [key], out
 
 
 # the matrix: (effect label expected, truth change of the foreign bench, accepted labels)
@@ -427,10 +464,11 @@ def _truth(spec: Spec, change: dict) -> dict:
     return out
 
 
-def matrix_case(folder: Path, label: str, seed: int = 31) -> dict:
-    """One matrix case on bench A: the right effect first, the right leg, the validation
-    error after adding it."""
-    spec = rigid_bench()
+def matrix_case(folder: Path, label: str, seed: int = 31, bench: str = "rigid") -> dict:
+    """One matrix case on bench A (or another of :data:`BENCHES` with a rigid payload: D,
+    whose servo lag sits after the hold): the right effect first, the right leg, the
+    validation error after adding it, the description's revised parts."""
+    spec = BENCHES[bench]()
     change, also = MATRIX[label]
     rec = make_record(folder, spec, seed=seed, **_truth(spec, change))
     diag, res = _diagnose(folder, spec, description(spec), rec)
@@ -441,7 +479,9 @@ def matrix_case(folder: Path, label: str, seed: int = 31) -> dict:
     if leg and first is not None:
         right_leg = label.split(".")[1] in first.split(".")
     return {"effect": label, "first": first, "found": ok, "right_leg": right_leg,
-            "error_val": validation_error(diag)}
+            "error_val": validation_error(diag), "revisions": diag.revisions,
+            "other_revisions": [r["label"] for r in diag.revisions
+                                if not ("scene:" + r["label"]).startswith(also or ("\0",))]}
 
 
 # the matrix's measured misses (the whole matrix on the idle machine, 2026-11-27)
