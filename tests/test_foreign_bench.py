@@ -522,3 +522,27 @@ def test_matrix_effect_on_the_servo_lag_bench(tmp_path, label):
     assert out["found"] and out["right_leg"], out
     assert out["error_val"] <= 1.2, out
     assert out["other_revisions"] == [], out
+
+
+@pytest.mark.slow
+def test_unmodelled_plate_inertia_revises_no_statement(tmp_path):
+    """Bench D whose plate is a uniform disc of radius 0.30 m (Ixx = Iyy = m·R²/4, Izz =
+    m·R²/2 about the plate's axes, its centre of mass at the plate's centre), which a scene
+    cannot state (the model's plate: 0.276, 0.276, 0.551 kg·m², 9.3 mm lower), described
+    right in all it can state: a residual the model cannot explain — no statement of the
+    servo or the conventions is revised in --auto; the servo's revisions that would absorb a
+    little of it are screened and rejected as not decisive. (Measured 2026-11-29: 2.26 noise
+    units; `transfer.delay=0.001023` removes 3 % of the excess and is rejected, but the
+    effect `delay` of the same physics, 22.5 µs, is accepted (2.26 → 2.23): a residual no
+    candidate has is still partly absorbed by an effect — the issue's item 4, not done.)"""
+    spec = servo_bench()
+    m, r = plate_inertial(_model_of(write_scene(tmp_path, spec, description(spec))))[
+        "plate_mass"], 0.30
+    rec = make_record(tmp_path, spec, seed=11, plate_ipos=(0.0, 0.0, 0.0),
+                      plate_iquat=(1.0, 0.0, 0.0, 0.0),
+                      plate_inertia=(m * r * r / 4, m * r * r / 4, m * r * r / 2))
+    diag, res = _diagnose(tmp_path, spec, description(spec), rec, rounds=3)
+    assert diag.revisions == []
+    assert any(c.effect.startswith("scene:transfer.") and "not decisive" in c.note
+               for c in res[0].candidates)
+    assert validation_error(diag) > 1.5  # the plate's inertia stays unexplained
