@@ -10,8 +10,9 @@ the scene. Prints, and writes to ``results.json`` in the output folder:
 - null: the three benches described right (validation ≤ 1.2 units of the bench's noise);
 - described wrong: one error each (hold mode, sampling instant, payload mass, centre-of-mass
   height, one anchor): found first, validation ≤ 1.2 after it;
-- matrix: per-leg, geometry, FTS and payload effects hidden in bench A: right effect first,
-  right leg, validation ≤ 1.2 after adding it.
+- matrix: per-leg, geometry, FTS and payload effects hidden in bench A (``--bench servo``:
+  bench D, A with its servo's lag after the hold): right effect first, right leg,
+  validation ≤ 1.2 after adding it, no statement of the description revised.
 
 Run: ``python examples/66_foreign_bench.py [--quick] [--kinds null,wrong,matrix]
 [--shard I/N] [--out DIR]`` (the full set takes about an hour on two shared cores; ``--quick``
@@ -36,6 +37,9 @@ def main() -> None:
     ap.add_argument("--kinds", default="null,wrong,matrix",
                     help="which sets to run (comma-separated: null, wrong, matrix)")
     ap.add_argument("--shard", default="0/1", help="I/N: run every N-th case from the I-th")
+    ap.add_argument("--bench", default="rigid",
+                    help="the matrix's bench: rigid (A) or servo (D: A with its servo's "
+                         "3 ms lag after the hold, described with lag = \"servo\")")
     ap.add_argument("--out", type=Path, default=Path("foreign_bench_results"),
                     help="output folder (results.json)")
     args = ap.parse_args()
@@ -48,6 +52,8 @@ def main() -> None:
         sys.exit(f"error: --shard: {args.shard!r} must be I/N with 0 <= I < N")
     if bad:
         sys.exit(f"error: --kinds: {sorted(bad)} not among null, wrong, matrix")
+    if args.bench not in ("rigid", "servo"):
+        sys.exit(f"error: --bench: {args.bench!r} must be rigid or servo")
     if not (TESTS / "foreign_bench.py").is_file():
         sys.exit("error: tests/foreign_bench.py not found: run from a clone of the repository")
     sys.path.insert(0, str(TESTS))
@@ -85,9 +91,9 @@ def main() -> None:
         for i, label in enumerate(matrix):
             folder = Path(tmp) / f"matrix{i}"
             folder.mkdir()
-            row = fb.matrix_case(folder, label)
+            row = fb.matrix_case(folder, label, bench=args.bench)
             out["matrix"].append(row)
-            print("matrix", row, flush=True)
+            print("matrix", {k: v for k, v in row.items() if k != "revisions"}, flush=True)
 
     def rate(rows, key):
         vals = [r[key] for r in rows if r.get(key) is not None]
@@ -101,6 +107,8 @@ def main() -> None:
         "matrix_first": rate(out["matrix"], "found"),
         "matrix_right_leg": rate(out["matrix"], "right_leg"),
         "matrix_fixed": rate([{"ok": r["error_val"] <= 1.2} for r in out["matrix"]], "ok"),
+        "statements_kept": rate([{"ok": not r["other_revisions"]} for r in out["matrix"]]
+                                + [{"ok": r["proposal"] is None} for r in out["null"]], "ok"),
         "minutes": round((time.time() - t0) / 60, 1),
     }
     out["figures"] = fig

@@ -177,6 +177,17 @@ dynamics of the servo after the hold, integrated with the physics (``servo``).""
 GRAVITY = ("nominal", "measured", "none")
 """Sources of the gravity compensation: the nominal model, the bench's own holding forces at
 rest (measured), or none."""
+SERVO_RANGES = {"kp": (0.0, 1e9, "N/m"), "kv": (0.0, 1e7, "N·s/m"),
+                "timeconst": (0.0, 1.0, "s"), "delay": (0.0, 0.5, "s")}
+"""The leg servo's numbers a scene's ``[controller]`` table states (kept in
+:class:`TransferConfig`, where their defaults are): (lower, upper limit, unit) each; ``kp``
+must exceed its lower limit, the others may equal it."""
+SERVO_CONVENTIONS = {"hold": HOLD, "sample": SAMPLE, "feedforward": FEEDFORWARD,
+                     "gravity": GRAVITY, "lag": LAG}
+"""The ``[controller]`` conventions and their allowed values (defaults in
+:class:`ControllerConfig`)."""
+CONTROLLER_KEYS = (*SERVO_RANGES, *SERVO_CONVENTIONS)
+"""Every key of a scene's ``[controller]`` table."""
 
 
 @dataclass(frozen=True)

@@ -97,6 +97,10 @@ class ForeignBench:
     """The sensor's reference point off its place (m), the part unmoved."""
     fixture_mass: float = 0.0
     """An adapter mass (kg) on the sensor, 5 mm above its face."""
+    servo_lag: float = 0.0
+    """The servo's continuous first-order lag after the hold (s): the slide is driven
+    towards x, ẋ = (u − x)/τ of the held command u (a valve or amplifier), x an activation
+    of the servo's own actuator integrated with the physics at the physics step; 0: none."""
 
     def with_(self, **kw) -> ForeignBench:
         return replace(self, **kw)
@@ -140,7 +144,9 @@ class ForeignBench:
         conn = "\n".join(f'    <connect site1="tip{i}" site2="a{i}" solref="0.002 1" '
                          f'solimp="0.99 0.999 0.0001"/>' for i in range(6))
         kps = [self.kp * s for s in self.kp_scale]
-        acts = "\n".join(f'    <general name="servo{i}" joint="sl{i}" gainprm="{kps[i]}" '
+        dyn = (f'dyntype="filter" dynprm="{self.servo_lag!r}" ' if self.servo_lag > 0
+               else "")
+        acts = "\n".join(f'    <general name="servo{i}" joint="sl{i}" {dyn}gainprm="{kps[i]}" '
                          f'biastype="affine" biasprm="0 {-kps[i]} {-self.kv}"/>'
                          for i in range(6))
         return f"""<mujoco model="foreign_bench">

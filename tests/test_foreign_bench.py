@@ -8,7 +8,9 @@ noise), given only the record file and the scene a user would write from the ben
 - Null: described correctly, only noise (validation ≤ 1.2 noise units, counted in the noise
   the bench added);
 - Described wrong (one error each: hold mode, sampling instant, payload mass, centre-of-mass
-  height, one anchor): the error found first, validation ≤ 1.2 after it;
+  height, one anchor; on bench D, whose servo lag sits after the hold: the lag's place not
+  stated, the lag or the delay stated twice what the bench has): the error found first,
+  validation ≤ 1.2 after it;
 - a matrix of per-leg, geometry, FTS and payload effects on such a bench.
 
 The full matrix with its figures: ``python examples/66_foreign_bench.py``.
@@ -137,7 +139,22 @@ def other_geometry_bench() -> Spec:
                 _rigid_xml(m, com, inertia), servo={"kp": 3.0e5, "kv": 2.5e3})
 
 
-BENCHES = {"rigid": rigid_bench, "contact": contact_bench, "geometry": other_geometry_bench}
+SERVO_LAG = 0.003
+"""s: the first-order lag of bench D's servo, continuous after the hold."""
+
+
+def servo_bench() -> Spec:
+    """Bench D (bench A): its servo with a continuous first-order lag of 3 ms after the
+    zero-order hold (a valve or amplifier), integrated at the bench's own physics step —
+    another convention than the bench model's set-point filter before the hold."""
+    s = rigid_bench()
+    return Spec("servo", s.base, s.top, s.home_height, s.masses, s.fts_height, s.part,
+                s.part_xml, servo={"kp": 2.0e5, "kv": 2.0e3, "timeconst": SERVO_LAG,
+                                   "lag": "servo"})
+
+
+BENCHES = {"rigid": rigid_bench, "contact": contact_bench, "geometry": other_geometry_bench,
+           "servo": servo_bench}
 
 
 # ---------------------------------------------------------------------------- the scene
@@ -162,7 +179,7 @@ def description(spec: Spec) -> dict:
                      "home_height": spec.home_height, **spec.masses,
                      "fts_height": spec.fts_height,
                      "fts_pose": [0.0, 0.0, spec.fts_height, 0.0, 0.0, 0.0]},
-        "controller": {**spec.servo, "timeconst": 0.0, "delay": 0.001, "hold": "zoh",
+        "controller": {"timeconst": 0.0, "delay": 0.001, **spec.servo, "hold": "zoh",
                        "sample": "start", "feedforward": "backward", "gravity": "measured"},
         "transfer": {"kind": "stewart"},
         "experiment": dict(spec.part),
@@ -204,6 +221,8 @@ def make_record(folder: Path, spec: Spec, *, duration: float = 2.5, seed: int = 
                       piston_mass=spec.masses["piston_mass"],
                       fts_pose=(0.0, 0.0, spec.fts_height, 0.0, 0.0, 0.0),
                       kp=spec.servo["kp"], kv=spec.servo["kv"], delay_samples=1,
+                      servo_lag=(spec.servo.get("timeconst", 0.0)
+                                 if spec.servo.get("lag") == "servo" else 0.0),
                       part_xml=spec.part_xml, world_xml=spec.world_xml)
     fb = fb.with_(**truth)
     poses = multisine(duration, DT, seed=seed, **spec.poses)
@@ -301,20 +320,22 @@ def _diagnose(folder: Path, spec: Spec, desc: dict, rec_path: Path, rounds: int 
 
 
 @pytest.mark.parametrize("name", [
-    "rigid", pytest.param("contact", marks=pytest.mark.slow),
+    "rigid", "servo", pytest.param("contact", marks=pytest.mark.slow),
     pytest.param("geometry", marks=[pytest.mark.slow, pytest.mark.skipif(
         not os.environ.get("RTHS3D_FULL_MATRIX"),
         reason="bench C's null runs with RTHS3D_FULL_MATRIX=1 (its geometry is checked in "
                "the suite by bench A's anchor case and the explicit-anchors test)")])])
 def test_null_described_right_is_only_noise(tmp_path, name):
-    """Null: the bench described right (geometry, masses, servo, conventions, part): only
-    noise — nothing proposed, validation error ≤ 1.2 units of the noise the bench added."""
+    """Null: the bench described right (geometry, masses, servo, conventions, part; bench D
+    with its lag's place stated, ``lag = "servo"``): only noise — nothing proposed, no
+    statement revised, validation error ≤ 1.2 units of the noise the bench added."""
     spec = BENCHES[name]()
     rec = make_record(tmp_path, spec, seed=11)
     if name == "contact":  # the specimen meets its surface during the test
         assert LAST_RUN["contact_fraction"] > 0.02
     diag, res = _diagnose(tmp_path, spec, description(spec), rec, rounds=1)
     assert res[0].proposal is None, res[0].proposal
+    assert diag.revisions == []
     assert validation_error(diag) <= 1.2
 
 
@@ -343,12 +364,24 @@ def _wrong(spec: Spec, error: str) -> tuple[dict, tuple[str, ...]]:
         base[2, 0] += 1.5e-3
         d["platform"]["base_anchors"] = base.tolist()
         return d, ("kinematic_calibration", "base_anchor.leg2")
+    if error == "lag_place":  # a user who does not know where the lag sits: not stated
+        del d["controller"]["lag"]
+        return d, ("scene:controller.lag=servo",)
+    if error == "timeconst":  # stated twice what the bench has
+        d["controller"][error] = 2 * d["controller"][error]
+        return d, (f"scene:transfer.{error}=",)
+    if error == "delay":
+        # stated 1.5 times what the bench has (stated twice, one sample too many, it is
+        # exactly confounded with sampling at the end: docs/diagnosis.md)
+        d["controller"][error] = 1.5 * d["controller"][error]
+        return d, (f"scene:transfer.{error}=",)
     raise ValueError(error)
 
 
 WRONG = [("rigid", e) for e in ("hold", "sample", "mass", "com_height", "anchor")] + \
     [("contact", e) for e in ("hold", "sample", "anchor")] + \
-    [("geometry", e) for e in ("hold", "sample", "mass", "com_height", "anchor")]
+    [("geometry", e) for e in ("hold", "sample", "mass", "com_height", "anchor")] + \
+    [("servo", e) for e in ("lag_place", "timeconst", "delay")]
 
 
 def described_wrong_case(folder: Path, name: str, error: str, seed: int = 21) -> dict:
@@ -364,7 +397,9 @@ def described_wrong_case(folder: Path, name: str, error: str, seed: int = 21) ->
     first = res[0].proposal.effect if res[0].proposal is not None else None
     return {"bench": name, "error": error, "first": first,
             "found": first is not None and first.startswith(found),
-            "error_val": validation_error(diag), "revisions": diag.revisions}
+            "error_val": validation_error(diag), "revisions": diag.revisions,
+            "other_revisions": [r["label"] for r in diag.revisions
+                                if not ("scene:" + r["label"]).startswith(found)]}
 
 
 FULL = pytest.mark.skipif(
@@ -372,7 +407,7 @@ FULL = pytest.mark.skipif(
     reason="the rest of the foreign-bench figures (1–2 min each): RTHS3D_FULL_MATRIX=1 runs them "
            "here, examples/66_foreign_bench.py prints them all; the suite keeps the cases "
            "measured on 2026-11-27")
-MEASURED_WRONG = {("rigid", "hold"), ("rigid", "anchor")}
+MEASURED_WRONG = {("rigid", "hold"), ("rigid", "anchor"), ("servo", "lag_place")}
 """Described-wrong cases the suite runs (the whole set passes with RTHS3D_FULL_MATRIX=1,
 measured 2026-11-27; docs/diagnosis.md)."""
 MEASURED_MATRIX = {"coulomb_friction.leg2"}
@@ -380,10 +415,10 @@ MEASURED_MATRIX = {"coulomb_friction.leg2"}
 
 
 @pytest.mark.parametrize("name,error", [
-    ("rigid", "hold"),
+    ("rigid", "hold"), ("servo", "lag_place"),
     *[pytest.param(n, e, marks=[pytest.mark.slow,
                                 *([] if (n, e) in MEASURED_WRONG else [FULL])])
-      for n, e in WRONG if (n, e) != ("rigid", "hold")]])
+      for n, e in WRONG if (n, e) not in (("rigid", "hold"), ("servo", "lag_place"))]])
 def test_described_wrong_is_found_and_fixed(tmp_path, name, error):
     """Described wrong (one error): the error is found first and the validation error falls
     to ≤ 1.2 units of the bench's noise; a description error is reported as the revised
@@ -394,6 +429,8 @@ def test_described_wrong_is_found_and_fixed(tmp_path, name, error):
     if out["first"].startswith("scene:"):
         key = out["first"].removeprefix("scene:").split("=")[0]
         assert any(key in r["label"] for r in out["revisions"]), out
+        if name == "servo":  # no other statement is revised on the way to noise
+            assert [r["label"].split("=")[0] for r in out["revisions"]] == [key], out
 
 
 # the matrix: (effect label expected, truth change of the foreign bench, accepted labels)
@@ -429,10 +466,11 @@ def _truth(spec: Spec, change: dict) -> dict:
     return out
 
 
-def matrix_case(folder: Path, label: str, seed: int = 31) -> dict:
-    """One matrix case on bench A: the right effect first, the right leg, the validation
-    error after adding it."""
-    spec = rigid_bench()
+def matrix_case(folder: Path, label: str, seed: int = 31, bench: str = "rigid") -> dict:
+    """One matrix case on bench A (or another of :data:`BENCHES` with a rigid payload: D,
+    whose servo lag sits after the hold): the right effect first, the right leg, the
+    validation error after adding it, the description's revised parts."""
+    spec = BENCHES[bench]()
     change, also = MATRIX[label]
     rec = make_record(folder, spec, seed=seed, **_truth(spec, change))
     diag, res = _diagnose(folder, spec, description(spec), rec)
@@ -443,7 +481,9 @@ def matrix_case(folder: Path, label: str, seed: int = 31) -> dict:
     if leg and first is not None:
         right_leg = label.split(".")[1] in first.split(".")
     return {"effect": label, "first": first, "found": ok, "right_leg": right_leg,
-            "error_val": validation_error(diag)}
+            "error_val": validation_error(diag), "revisions": diag.revisions,
+            "other_revisions": [r["label"] for r in diag.revisions
+                                if not ("scene:" + r["label"]).startswith(also or ("\0",))]}
 
 
 # the matrix's measured misses (the whole matrix on the idle machine, 2026-11-27)
@@ -471,3 +511,40 @@ def test_matrix_effect_on_a_foreign_bench(tmp_path, label):
     assert out["found"], out
     assert out["right_leg"] in (None, True), out
     assert out["error_val"] <= 1.2, out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("label", ["servo_gain.leg1"])
+def test_matrix_effect_on_the_servo_lag_bench(tmp_path, label):
+    """A leg's gain 15 % low on bench D (its servo's lag after the hold, stated): found first
+    on the right leg, ≤ 1.2 after it, no statement revised — the gain effect acts on the
+    lagged set-point as the bench's servo does (measured 2026-11-29: 0.998; 1.84 while the
+    effect left the lag's share of the force at the stated gain)."""
+    out = matrix_case(tmp_path, label, bench="servo")
+    assert out["found"] and out["right_leg"], out
+    assert out["error_val"] <= 1.2, out
+    assert out["other_revisions"] == [], out
+
+
+@pytest.mark.slow
+def test_unmodelled_plate_inertia_revises_no_statement(tmp_path):
+    """Bench D whose plate is a uniform disc of radius 0.30 m (Ixx = Iyy = m·R²/4, Izz =
+    m·R²/2 about the plate's axes, its centre of mass at the plate's centre), which a scene
+    cannot state (the model's plate: 0.276, 0.276, 0.551 kg·m², 9.3 mm lower), described
+    right in all it can state: a residual the model cannot explain — no statement of the
+    servo or the conventions is revised in --auto; the servo's revisions that would absorb a
+    little of it are screened and rejected as not decisive. (Measured 2026-11-29: 2.26 noise
+    units; `transfer.delay=0.001023` removes 3 % of the excess and is rejected, but the
+    effect `delay` of the same physics, 22.5 µs, is accepted (2.26 → 2.23): a residual no
+    candidate has is still partly absorbed by an effect — the issue's item 4, not done.)"""
+    spec = servo_bench()
+    m, r = plate_inertial(_model_of(write_scene(tmp_path, spec, description(spec))))[
+        "plate_mass"], 0.30
+    rec = make_record(tmp_path, spec, seed=11, plate_ipos=(0.0, 0.0, 0.0),
+                      plate_iquat=(1.0, 0.0, 0.0, 0.0),
+                      plate_inertia=(m * r * r / 4, m * r * r / 4, m * r * r / 2))
+    diag, res = _diagnose(tmp_path, spec, description(spec), rec, rounds=3)
+    assert diag.revisions == []
+    assert any(c.effect.startswith("scene:transfer.") and "not decisive" in c.note
+               for c in res[0].candidates)
+    assert validation_error(diag) > 1.5  # the plate's inertia stays unexplained

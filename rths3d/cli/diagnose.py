@@ -191,7 +191,8 @@ def diagnose(
             f"{k} ({v:+.2f})" for k, v in r.get("state_correlation", {}).items()))
     for r in diag.revisions:
         con.print("description revised: " + "; ".join(
-            f"{k}: {v['stated']!r} → {v['revised']!r}" for k, v in r["changes"].items()))
+            f"{k}: {v['stated']!r} → {v['revised']!r}" for k, v in r["changes"].items())
+            + (f" — {r['evidence']}" if r.get("evidence") else ""))
     for w in diag.waterfall:
         con.print(f"  {w['step']}: training {w['error_train']:.3f}, validation "
                   f"{w['error_val']:.3f}")

@@ -138,6 +138,8 @@ class Diagnosis(RoundStages, Calibrations):
         """The parts of the description the diagnosis changed, in order: the revision's
         label and, per dotted scene key, the value stated and the value accepted."""
         self._revs: dict[str, Revision] = {}
+        self._evidence: dict[str, str] = {}
+        """The last ranking's evidence against the scene's statements, per revision."""
         self.replay = BenchReplay(scene, inp, substeps=substeps, nthread=nthread)
         self.threads = max(1, int(nthread))
         """Threads of a round's batched replays (:meth:`outputs`)."""

@@ -224,6 +224,8 @@ def _verdict(result: RoundResult) -> list[str]:
         head = "Proposal" if result.status == "effect_proposed" else "Partly explained by"
         lines += [f"**{head}: `{p.effect}`** ({val}): validation error "
                   f"{p.error_before:.3f} → {p.error_after:.3f} noise units.", ""]
+        if p.evidence:
+            lines += [f"This {p.evidence}.", ""]
     elif result.status == "unexplained":
         lines += ["**Unexplained residual**: no effect of the library explains it "
                   f"significantly, yet it is not noise (validation error {result.error_val:.3g}"
@@ -273,7 +275,8 @@ def write_report(diag: Diagnosis, result: RoundResult, out_dir: str | Path,
     acc = ", ".join(f"{k} = {v:.4g}" for k, v in diag.accepted.items()) or "none"
     for r in diag.revisions:
         lines.append("- description revised: " + "; ".join(
-            f"`{k}`: {v['stated']!r} → {v['revised']!r}" for k, v in r["changes"].items()))
+            f"`{k}`: {v['stated']!r} → {v['revised']!r}" for k, v in r["changes"].items())
+            + (f" — {r['evidence']}" if r.get("evidence") else ""))
     lines += [f"- accepted effects: {acc}",
               f"- error (noise units, 1 = only noise): training {result.error_train:.3f}, "
               f"validation {result.error_val:.3f}; status **{result.status}**"]

@@ -50,6 +50,9 @@ class Candidate:
     """Further facts (e.g. the kinematic calibration's identifiability report)."""
     changes: dict[str, Any] = field(default_factory=dict)
     """A revision of the description: its changes of the scene (dotted key → value)."""
+    evidence: str = ""
+    """A revision that contradicts the scene's statements: what was stated, what the
+    measurement says and by how much ("contradicts your description: …")."""
 
     @property
     def leg(self) -> int:

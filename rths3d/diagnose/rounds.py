@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..effects import get_effect, parse_label
-from .candidates import is_revision
+from .candidates import DECISIVE, contradicted, is_revision
 from .localise import effective_samples, remaining_structure
 from .result import MULTI, NOISE_LIKE, Candidate, RoundResult
 
@@ -296,14 +296,19 @@ class RoundStages:
                 else:
                     cand.ci = (cand.value, cand.value)
                     excludes = math.isinf(eff.param.off) and cand.value < eff.param.hi
+            decisive = True
+            if is_revision(k):
+                decisive = _weigh_statement(cand, contradicted(self.scene, cand.changes))
+                self._evidence[k] = cand.evidence
             cand.significant = bool(cand.fitted and cand.score > 0 and g >= self.min_gain
-                                    and excludes)
+                                    and excludes and decisive)
             if not cand.significant:
                 cand.note = "; ".join(s for s in (
                     "not refitted (linear estimate)" if not cand.fitted else "",
                     "ΔIC ≤ 0" if cand.score <= 0 else "",
                     f"validation gain {g:.2%} < {self.min_gain:.0%}" if g < self.min_gain
-                    else "", "interval includes off" if not excludes else "") if s)
+                    else "", "interval includes off" if not excludes else "",
+                    cand.note if not decisive else "") if s)
             fitted_changes[k] = self._vec(r0, tr) - self._vec(r1, tr)
         ranked = sorted(cands.values(), key=lambda c: (
             -(c.score if math.isfinite(c.score) else -1e300), -c.share))
@@ -333,6 +338,26 @@ class RoundStages:
         return RoundResult(ranked, dict(self.accepted), proposal is None and noise_like,
                            proposal, confounded, e_tr0, e_va0, chan_rms, dict(self.sigma),
                            white, partly, remaining)
+
+
+def _weigh_statement(cand: Candidate, against: dict[str, tuple[Any, Any]]) -> bool:
+    """A revision that contradicts the scene's statements (``against``: key → (stated,
+    revised)) is decisive when it removes at least :data:`DECISIVE` of the validation
+    error's excess over noise; the evidence goes to ``cand.evidence`` (and, when it is not
+    decisive, to its note). True when the revision may be accepted."""
+    if not against:
+        return True
+    e0, e1 = cand.error_before, cand.error_after
+    share = (e0 - e1) / (e0 - 1.0) if e0 > 1.0 else 0.0
+    what = "; ".join(f"stated {key} = {old!r}, the measurement says {new!r}"
+                     for key, (old, new) in against.items())
+    cand.evidence = (f"contradicts your description: {what}, by validation error {e0:.3g} → "
+                     f"{e1:.3g} noise units ({share:.0%} of the excess over noise)")
+    if share >= DECISIVE:
+        return True
+    cand.note = (f"contradicts your description and is not decisive ({share:.0%} of the "
+                 f"excess over noise removed, {DECISIVE:.0%} needed)")
+    return False
 
 
 def _description_first(ranked: list[Candidate], cands: dict[str, Candidate],

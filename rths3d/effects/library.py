@@ -170,15 +170,23 @@ class ViscousFriction(Effect):
 
 def _scale_kp(spec: Any, i: int, change: Callable[[float], float]) -> None:
     """Leg i's position gain kp → change(kp), from the gain the spec has now, so that several
-    gain effects (a leg's own and the platform's compliance) combine in any order."""
+    gain effects (a leg's own and the platform's compliance) combine in any order. With the
+    servo's lag after the hold (the ``leg{i}_lag`` actuator, force −kp·τ·f: the gain acts on
+    the lagged set-point) its gain is scaled alike."""
     act = spec.actuator(f"leg{i}")
     gain = np.array(act.gainprm)
     bias = np.array(act.biasprm)
-    kp = change(float(gain[0]))
+    kp0 = float(gain[0])
+    kp = change(kp0)
     gain[0] = kp
     bias[1] = -kp
     act.gainprm = gain
     act.biasprm = bias
+    lag = spec.actuator(f"leg{i}_lag")
+    if lag is not None:
+        lg = np.array(lag.gainprm)
+        lg[0] *= kp / kp0
+        lag.gainprm = lg
 
 
 @register

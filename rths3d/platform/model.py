@@ -37,7 +37,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..config import FEEDFORWARD, HOLD, LAG, SAMPLE
+from ..config import SERVO_CONVENTIONS, SERVO_RANGES, ControllerConfig
 from ..errors import ConfigError
 from .geometry import DEFAULT_GEOMETRY, StewartGeometry
 
@@ -120,26 +120,23 @@ class ActuatorConfig:
     stroke: float | None = None
     velocity_limit: float | None = None
     force_limit: float | None = None
-    hold: str = "ramp"
-    sample: str = "end"
-    feedforward: str = "backward"
-    lag: str = "setpoint"
+    hold: str = ControllerConfig.hold
+    sample: str = ControllerConfig.sample
+    feedforward: str = ControllerConfig.feedforward
+    lag: str = ControllerConfig.lag
 
     def __post_init__(self) -> None:
-        for name, allowed in (("hold", HOLD), ("sample", SAMPLE),
-                              ("feedforward", FEEDFORWARD), ("lag", LAG),
+        for name, allowed in (*SERVO_CONVENTIONS.items(),
                               ("gravity_source", ("nominal", "measured"))):
+            if name == "gravity":  # gravity_comp / gravity_source here
+                continue
             v = getattr(self, name)
             _check(f"controller.{name}", v, v in allowed, "one of " + " | ".join(allowed))
-        _check("actuator.kp", self.kp, math.isfinite(self.kp) and self.kp > 0,
-               "must be > 0 N/m")
-        _check("actuator.kv", self.kv, math.isfinite(self.kv) and self.kv >= 0,
-               "must be >= 0 N·s/m")
-        _check("actuator.timeconst", self.timeconst,
-               math.isfinite(self.timeconst) and 0 <= self.timeconst <= 1.0,
-               "must be in [0, 1] s")
-        _check("actuator.delay", self.delay,
-               math.isfinite(self.delay) and 0 <= self.delay <= 0.5, "must be in [0, 0.5] s")
+        for name, (lo, hi, unit) in SERVO_RANGES.items():  # one home: rths3d.config
+            v = getattr(self, name)
+            _check(f"actuator.{name}", v, math.isfinite(v) and (v > lo if name == "kp" else
+                                                                 v >= lo) and v <= hi,
+                   f"must be {'>' if name == 'kp' else '>='} {lo:g} and <= {hi:g} {unit}")
         for name, unit in (("stroke", "m"), ("velocity_limit", "m/s"), ("force_limit", "N")):
             v = getattr(self, name)
             if v is not None:

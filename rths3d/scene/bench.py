@@ -19,11 +19,9 @@ from typing import Any
 import numpy as np
 
 from ..config import (
-    FEEDFORWARD,
-    GRAVITY,
-    HOLD,
-    LAG,
-    SAMPLE,
+    CONTROLLER_KEYS,
+    SERVO_CONVENTIONS,
+    SERVO_RANGES,
     ControllerConfig,
     PlatformDescription,
 )
@@ -41,12 +39,6 @@ PATTERN = ("base_radius", "top_radius", "base_gap", "top_gap", "base_angle")
 SCALARS = tuple(f.name for f in dataclasses.fields(StewartGeometry))
 """Every StewartGeometry field (m, rad, kg, N, m/s)."""
 PLATFORM_KEYS = (*SCALARS, "base_anchors", "top_anchors", "geometry_file", "fts_pose")
-CONTROLLER_KEYS = ("kp", "kv", "timeconst", "delay", "hold", "sample", "feedforward",
-                   "gravity", "lag")
-_SHARED = ("kp", "kv", "timeconst", "delay")
-"""[controller] keys that today's [transfer] table also has."""
-_RANGES = {"kp": (0.0, 1e9, "N/m"), "kv": (0.0, 1e7, "N·s/m"), "timeconst": (0.0, 1.0, "s"),
-           "delay": (0.0, 0.5, "s")}
 
 
 def _number(field: str, v: Any, unit: str) -> float:
@@ -199,11 +191,10 @@ def controller_table(sec: Any, transfer: dict[str, Any]) -> ControllerConfig:
         if key not in CONTROLLER_KEYS:
             raise ConfigError(f"controller.{key}", sec[key],
                               f"unknown field (known: {', '.join(CONTROLLER_KEYS)})")
-    for key in _SHARED:
+    for key, (lo, hi, unit) in SERVO_RANGES.items():  # today's [transfer] table has them too
         if key not in sec:
             continue
         v = sec[key]
-        lo, hi, unit = _RANGES[key]
         if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) \
                 or not (v > lo if key == "kp" else v >= lo) or v > hi:
             raise ConfigError(f"controller.{key}", v, f"must be {'>' if key == 'kp' else '>='}"
@@ -213,8 +204,7 @@ def controller_table(sec: Any, transfer: dict[str, Any]) -> ControllerConfig:
                               f"{transfer[key]!r} (set it in one table)")
         transfer[key] = v
     kw: dict[str, str] = {}
-    for key, allowed in (("hold", HOLD), ("sample", SAMPLE), ("feedforward", FEEDFORWARD),
-                         ("gravity", GRAVITY), ("lag", LAG)):
+    for key, allowed in SERVO_CONVENTIONS.items():
         if key in sec:
             v = sec[key]
             if v not in allowed:

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..bench import Bench, platform_batch
 from ..bench.base import platform_config
-from ..config import Scene
+from ..config import ControllerConfig, Scene
 from ..effects import WRENCH, get_effect, noise_sigma
 from ..effects.blocks import NoiseBlock
 from ..experiment import part_class
@@ -156,7 +156,7 @@ class StewartTransfer:
                           (get_effect(name).stage in ("setpoint", "fts", "sensor", "noise")
                            or get_effect(name).structural)})
         # a servo lag after the hold adds actuators to the model (rths3d.platform.model)
-        servo_lag = s.get("controller.lag", "setpoint") == "servo" and \
+        servo_lag = s.get("controller.lag", ControllerConfig.lag) == "servo" and \
             setting(s, "transfer.timeconst", 0.0) > 0
         return (compensator_key(s), setting(s, "transfer.substeps", 1), servo_lag,
                 s.get("transfer.integrator", "RK4"),

@@ -3,8 +3,9 @@
 The effects of :mod:`rths3d.effects` are what a bench *adds* to its description; these
 candidates are what the description *states wrongly*: the controller's conventions (how a
 set-point is held over the interface step, when the channels are sampled, the feed-forward's
-difference form, where gravity compensation comes from) and the payload's inertial
-parameters. Each is one class in one file behind :class:`DescriptionCandidate`, joined by
+difference form, where gravity compensation comes from), the servo's dynamics (where its
+lag sits, the lag's and the delay's values, both ways from the statement) and the payload's
+inertial parameters. Each is one class in one file behind :class:`DescriptionCandidate`, joined by
 :func:`register_description`. A candidate proposes discrete :class:`Revision`\\ s — dotted
 scene keys and their new values (``{"controller.hold": "zoh"}``) — and the diagnosis screens
 them like effects: each revision replayed once, ranked by the same held-out criterion.
@@ -13,12 +14,14 @@ Accepting one rewrites the scene (``--save-scene`` writes it back into ``[platfo
 changed.
 """
 
-from . import controller, payload  # noqa: E402,F401,I001  (registration)
+from . import controller, payload, servo  # noqa: E402,F401,I001  (registration)
 from .base import (
+                   DECISIVE,
                    DESCRIPTIONS,
                    PREFIX,
                    DescriptionCandidate,
                    Revision,
+                   contradicted,
                    current,
                    is_revision,
                    register_description,
@@ -26,5 +29,6 @@ from .base import (
                    revisions,
 )
 
-__all__ = ["DESCRIPTIONS", "PREFIX", "DescriptionCandidate", "Revision", "current",
-           "is_revision", "register_description", "revised_scene", "revisions"]
+__all__ = ["DECISIVE", "DESCRIPTIONS", "PREFIX", "DescriptionCandidate", "Revision",
+           "contradicted", "current", "is_revision", "register_description", "revised_scene",
+           "revisions"]

@@ -8,11 +8,18 @@ from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
-from ...config import Scene
+from ...config import SERVO_RANGES, Scene
 from ...experiment import part_class
 
-__all__ = ["DESCRIPTIONS", "PREFIX", "DescriptionCandidate", "Revision", "current",
-           "is_revision", "register_description", "revised_scene", "revisions"]
+__all__ = ["DECISIVE", "DESCRIPTIONS", "PREFIX", "DescriptionCandidate", "Revision",
+           "contradicted", "current", "is_revision", "register_description", "revised_scene",
+           "revisions"]
+
+DECISIVE = 0.75
+"""A revision that contradicts what the scene states is accepted only when it removes at
+least this share of the validation error's excess over noise (``(e0 − e1)/(e0 − 1)``, noise
+units; docs/diagnosis.md): it must take the record most of the way to noise."""
+
 
 PREFIX = "scene:"
 """Label prefix of a description revision among the candidates (``scene:controller.hold=zoh``)."""
@@ -31,13 +38,16 @@ class Revision:
     ``k``: the number of parameters it fits (0 for a discrete choice); ``std``: standard
     deviations of numeric changes where the candidate estimated them (the revision counts as
     significant only if each change exceeds 1.96 of them); ``detail``: report lines (e.g. the
-    payload identification's condition number and what it cannot see)."""
+    payload identification's condition number and what it cannot see); ``refine``: a
+    numeric revision without an estimate (a step from the statement): the screening refines
+    it along the line from the statement, as one with ``std``."""
 
     label: str
     changes: Mapping[str, Any]
     k: int = 0
     std: Mapping[str, float] = field(default_factory=dict)
     detail: tuple[str, ...] = ()
+    refine: bool = False
 
     def along(self, scene: Scene, alpha: float) -> Revision | None:
         """The revision moved to ``stated + alpha·(revised − stated)`` on every key (numbers
@@ -61,7 +71,7 @@ class Revision:
             (key, v), = changes.items()
             label = f"{key}=" + (f"{v:g}" if isinstance(v, float) else
                                  "[" + ", ".join(f"{x:g}" for x in v) + "]")
-        return Revision(label, changes, self.k, dict(self.std), self.detail)
+        return Revision(label, changes, self.k, dict(self.std), self.detail, self.refine)
 
     def excludes_current(self, scene: Scene) -> bool:
         """Whether every numeric change is larger than 1.96 of its standard deviation."""
@@ -121,6 +131,24 @@ def current(scene: Scene, key: str) -> Any:
     if isinstance(v, tuple):
         return list(v) if v else None
     return v
+
+
+def contradicted(scene: Scene, changes: Mapping[str, Any]) -> dict[str, tuple[Any, Any]]:
+    """The keys of ``changes`` that contradict a statement of the scene: (stated, revised)
+    per key. Statements are the keys the scene's ``[controller]`` table sets (its
+    conventions, and the servo's ``kp``, ``kv``, ``timeconst``, ``delay``, which the
+    revisions name ``transfer.*``); what the scene leaves to today's defaults is no
+    statement."""
+    given = set(scene.controller.given)
+    out = {}
+    for key, new in changes.items():
+        sec, _, leaf = key.partition(".")
+        if (sec == "controller" and leaf in given) or \
+                (sec == "transfer" and leaf in SERVO_RANGES and leaf in given):
+            old = current(scene, key)
+            if old != new:
+                out[key] = (old, new)
+    return out
 
 
 def revised_scene(scene: Scene, changes: Mapping[str, Any]) -> Scene:

@@ -65,7 +65,7 @@ def screen_revisions(diag: Any) -> list[tuple[str, Revision, dict[str, np.ndarra
     r0 = diag._vec(diag._res(diag.predict()), diag.train)
     again: list[tuple[int, tuple[str, Revision, Scene]]] = []
     for i, ((_, rev, _), r) in enumerate(zip(todo, res, strict=True)):
-        if r is None or not rev.std:
+        if r is None or not (rev.std or rev.refine):
             continue
         d = diag._vec(diag._res(r), diag.train) - r0
         dd = float(np.dot(d, d))
@@ -124,6 +124,9 @@ def revise(diag: Any, label: str) -> Revision:
     diag.replay = _replay(diag, diag.scene)
     diag._cache.clear()
     diag._revs.clear()
-    diag.revisions.append({"label": rev.label, "changes": {
-        k: {"stated": old[k], "revised": v} for k, v in rev.changes.items()}})
+    entry: dict[str, Any] = {"label": rev.label, "changes": {
+        k: {"stated": old[k], "revised": v} for k, v in rev.changes.items()}}
+    if diag._evidence.get(label):  # it contradicted a statement of the scene
+        entry["evidence"] = diag._evidence[label]
+    diag.revisions.append(entry)
     return rev
