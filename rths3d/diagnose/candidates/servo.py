@@ -17,6 +17,7 @@ from typing import ClassVar
 import numpy as np
 
 from ...config import LAG, Scene
+from ...transfer import transfer_class
 from .base import Revision, current, register_description
 
 
@@ -36,8 +37,8 @@ class ServoDynamics:
 
     def revisions(self, scene: Scene, measured: Mapping[str, np.ndarray], dt: float
                   ) -> list[Revision]:
-        if scene.transfer.kind != "stewart":
-            return []
+        if not getattr(transfer_class(scene.transfer.kind), "replays_bench", False):
+            return []  # no leg servos to revise
         out = []
         tau = float(current(scene, "transfer.timeconst") or 0.0)
         delay = float(current(scene, "transfer.delay") or 0.0)
