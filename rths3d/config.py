@@ -9,8 +9,11 @@ scene parser may ask them what they accept without an import circle.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, fields, replace
 from typing import TYPE_CHECKING, Any
+
+from .errors import ConfigError
 
 if TYPE_CHECKING:  # the geometry is built by rths3d.scene; config only describes
     from .platform.geometry import StewartGeometry
@@ -188,6 +191,21 @@ SERVO_CONVENTIONS = {"hold": HOLD, "sample": SAMPLE, "feedforward": FEEDFORWARD,
 :class:`ControllerConfig`)."""
 CONTROLLER_KEYS = (*SERVO_RANGES, *SERVO_CONVENTIONS)
 """Every key of a scene's ``[controller]`` table."""
+
+
+def check_servo_number(field_name: str, name: str, value: Any) -> float:
+    """The one validation of a leg servo number ``name`` (``kp``, ``kv``, ``timeconst``,
+    ``delay``; :data:`SERVO_RANGES`) wherever it is given — a scene's ``[controller]`` or
+    ``[transfer]`` table, a platform's ``ActuatorConfig``, the command line: ``value`` as a
+    float, or a :class:`~rths3d.errors.ConfigError` naming ``field_name``, the value and the
+    limits."""
+    lo, hi, unit = SERVO_RANGES[name]
+    ok = not isinstance(value, bool) and isinstance(value, int | float) and \
+        math.isfinite(value) and (value > lo if name == "kp" else value >= lo) and value <= hi
+    if not ok:
+        raise ConfigError(field_name, value, f"must be {'>' if name == 'kp' else '>='} {lo:g}"
+                          f" and <= {hi:g} {unit}")
+    return float(value)
 
 
 @dataclass(frozen=True)

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import typer
 
+from ..config import TransferConfig
 from ..figures import check_output, new_figure, png_path, save_figure
 from ._app import app
 from ._output import Keeper, write_text
@@ -86,8 +87,8 @@ def track(
     duration: float = typer.Option(5.0, help="Test duration (s)."),
     ramp: float = typer.Option(0.5, help="Raised-cosine fade-in of the amplitude (s)."),
     velocity_ff: bool = typer.Option(True, "--ff/--no-ff", help="Velocity feed-forward."),
-    kp: float = typer.Option(2.0e5, help="Leg servo position gain (N/m)."),
-    kv: float = typer.Option(2.0e3, help="Leg servo velocity gain (N·s/m)."),
+    kp: float = typer.Option(TransferConfig.kp, help="Leg servo position gain (N/m)."),
+    kv: float = typer.Option(TransferConfig.kv, help="Leg servo velocity gain (N·s/m)."),
     timeconst: float = typer.Option(0.003, help="First-order set-point lag (s)."),
     delay: float = typer.Option(0.001, help="Transport delay of the set-point (s)."),
     substeps: int = typer.Option(1, help="Physics steps per 1 ms interface step."),
@@ -163,8 +164,8 @@ def identify(
     n_num: int = typer.Option(1, help="Numerator order of the fitted TF."),
     n_den: int = typer.Option(2, help="Denominator order of the fitted TF."),
     velocity_ff: bool = typer.Option(True, "--ff/--no-ff", help="Velocity feed-forward."),
-    kp: float = typer.Option(2.0e5, help="Leg servo position gain (N/m)."),
-    kv: float = typer.Option(2.0e3, help="Leg servo velocity gain (N·s/m)."),
+    kp: float = typer.Option(TransferConfig.kp, help="Leg servo position gain (N/m)."),
+    kv: float = typer.Option(TransferConfig.kv, help="Leg servo velocity gain (N·s/m)."),
     timeconst: float = typer.Option(0.003, help="First-order set-point lag (s)."),
     delay: float = typer.Option(0.001, help="Transport delay of the set-point (s)."),
     substeps: int = typer.Option(1, help="Physics steps per 1 ms interface step."),

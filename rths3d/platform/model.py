@@ -37,7 +37,13 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..config import SERVO_CONVENTIONS, SERVO_RANGES, ControllerConfig
+from ..config import (
+    SERVO_CONVENTIONS,
+    SERVO_RANGES,
+    ControllerConfig,
+    TransferConfig,
+    check_servo_number,
+)
 from ..errors import ConfigError
 from .geometry import DEFAULT_GEOMETRY, StewartGeometry
 
@@ -110,8 +116,8 @@ class ActuatorConfig:
         ``leg{i}_lag`` actuators).
     """
 
-    kp: float = 2.0e5
-    kv: float = 2.0e3
+    kp: float = TransferConfig.kp
+    kv: float = TransferConfig.kv
     timeconst: float = 0.003
     delay: float = 0.001
     velocity_ff: bool = True
@@ -132,11 +138,8 @@ class ActuatorConfig:
                 continue
             v = getattr(self, name)
             _check(f"controller.{name}", v, v in allowed, "one of " + " | ".join(allowed))
-        for name, (lo, hi, unit) in SERVO_RANGES.items():  # one home: rths3d.config
-            v = getattr(self, name)
-            _check(f"actuator.{name}", v, math.isfinite(v) and (v > lo if name == "kp" else
-                                                                 v >= lo) and v <= hi,
-                   f"must be {'>' if name == 'kp' else '>='} {lo:g} and <= {hi:g} {unit}")
+        for name in SERVO_RANGES:  # one home: rths3d.config
+            check_servo_number(f"actuator.{name}", name, getattr(self, name))
         for name, unit in (("stroke", "m"), ("velocity_limit", "m/s"), ("force_limit", "N")):
             v = getattr(self, name)
             if v is not None:

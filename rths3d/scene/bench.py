@@ -24,6 +24,7 @@ from ..config import (
     SERVO_RANGES,
     ControllerConfig,
     PlatformDescription,
+    check_servo_number,
 )
 from ..errors import ConfigError
 from ..platform.calibration import CalibratedGeometry, load_geometry
@@ -191,14 +192,11 @@ def controller_table(sec: Any, transfer: dict[str, Any]) -> ControllerConfig:
         if key not in CONTROLLER_KEYS:
             raise ConfigError(f"controller.{key}", sec[key],
                               f"unknown field (known: {', '.join(CONTROLLER_KEYS)})")
-    for key, (lo, hi, unit) in SERVO_RANGES.items():  # today's [transfer] table has them too
+    for key in SERVO_RANGES:  # today's [transfer] table has them too
         if key not in sec:
             continue
         v = sec[key]
-        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) \
-                or not (v > lo if key == "kp" else v >= lo) or v > hi:
-            raise ConfigError(f"controller.{key}", v, f"must be {'>' if key == 'kp' else '>='}"
-                              f" {lo:g} and <= {hi:g} {unit}")
+        check_servo_number(f"controller.{key}", key, v)
         if key in transfer and transfer[key] != v:
             raise ConfigError(f"controller.{key}", v, f"differs from transfer.{key} = "
                               f"{transfer[key]!r} (set it in one table)")

@@ -27,6 +27,7 @@ from ..config import (
     COMP_INIT,
     COMPENSATE,
     NUMERICAL_EXTRA,
+    SERVO_RANGES,
     EffectConfig,
     ExcitationConfig,
     ExperimentConfig,
@@ -37,6 +38,7 @@ from ..config import (
     Scene,
     SensorConfig,
     TransferConfig,
+    check_servo_number,
 )
 from ..errors import ConfigError
 from ..experiment import part_class, part_kinds
@@ -295,10 +297,11 @@ def scene_from_dict(raw: Mapping[str, Any], *, name: str = "scene", source: str 
     if not isinstance(comp_table, Mapping):
         raise ConfigError("transfer.compensator", comp_table, "must be a table of the "
                           "compensator's parameters")
+    for key in SERVO_RANGES:  # the leg servo's numbers: one validation (rths3d.config)
+        if key in tr_sec:
+            check_servo_number(f"transfer.{key}", key, tr_sec[key])
     tr = _build(TransferConfig, "transfer", tr_sec, {
-        "delay": {**nonneg, "hi": 0.5, "unit": "s"},
-        "comp_time": {**nonneg, "hi": 0.1, "unit": "s"},
-        "kp": pos, "kv": nonneg, "timeconst": nonneg})
+        "comp_time": {**nonneg, "hi": 0.1, "unit": "s"}})
     transfer_class(tr.kind)  # a ConfigError naming the registered kinds
     _choice("transfer.compensation", tr.compensation, compensator_names())
     _choice("transfer.compensate", tr.compensate, COMPENSATE)

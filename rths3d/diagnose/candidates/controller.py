@@ -16,18 +16,16 @@ from typing import ClassVar
 
 import numpy as np
 
-from ...config import Scene
+from ...config import SERVO_CONVENTIONS, ControllerConfig, Scene
 from .base import Revision, current, register_description
 
 CONVENTIONS: dict[str, tuple[str, ...]] = {
-    "hold": ("ramp", "zoh"),
-    "sample": ("end", "start"),
-    "feedforward": ("backward", "central", "none"),
-    "gravity": ("nominal", "measured", "none"),
-}
-"""The controller's discrete conventions and their choices ([controller] table)."""
+    k: SERVO_CONVENTIONS[k] for k in ("hold", "sample", "feedforward", "gravity")}
+"""The controller's discrete conventions and their choices ([controller] table; the lag's
+place is revised with the servo's numbers, :mod:`.servo`). Allowed values and defaults have
+one home: :data:`rths3d.config.SERVO_CONVENTIONS`, :class:`rths3d.config.ControllerConfig`."""
 
-DEFAULTS = {"hold": "ramp", "sample": "end", "feedforward": "backward", "gravity": "nominal"}
+DEFAULTS = {k: getattr(ControllerConfig(), k) for k in CONVENTIONS}
 """Today's bench (what a scene that says nothing means)."""
 
 
