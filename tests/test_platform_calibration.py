@@ -300,7 +300,7 @@ def test_fts_matrix_and_mounting_recovered_from_known_loads():
     offset within 0.2 mm and the mounting rotation within 1 mrad."""
     from scipy.spatial.transform import Rotation
 
-    from rths3d.platform.fts_calibration import skew
+    from rths3d.platform.kinematics import skew
 
     rng = np.random.default_rng(7)
     d = np.array([0.002, -0.0015, 0.003])

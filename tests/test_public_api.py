@@ -66,6 +66,8 @@ MOVED = {
     "rths3d.scene_bench": ("rths3d.scene.bench", ("bench_scene_text", "bench_origin",
                                                   "controller_table", "platform_table")),
     "rths3d.scene_checks": ("rths3d.scene.checks", ("check_coupled_stability", "check_reach")),
+    "rths3d.platform.identify": ("rths3d.lti.identify", ("multisine", "fit_transfer_function")),
+    "rths3d.platform.fts_calibration": ("rths3d.platform.kinematics", ("skew",)),
     "rths3d.effects.blocks": ("rths3d.kernels", ("Block", "Chain", "run_chain", "run_blocks",
                                                  "padded_kernels", "njit", "inline_njit",
                                                  "block_kernel", "ready", "kernel_tuple",

@@ -244,11 +244,11 @@ def calibrate(u: np.ndarray, z_meas: np.ndarray, dt: float,
     reaches ``coherence``: the excited ones), corrected for the held step (a held command
     answered at the end of the step leads the continuous model by dt/2), then
     ``num/den·exp(−sT)`` fitted as ``rths3d platform identify`` fits the platform
-    (:func:`rths3d.platform.identify.fit_transfer_function`). Returns ``config`` (default
+    (:func:`rths3d.lti.identify.fit_transfer_function`). Returns ``config`` (default
     :class:`InverseConfig`) with num, den and delay set."""
     import scipy.signal
 
-    from ..platform.identify import fit_transfer_function
+    from ..lti.identify import fit_transfer_function
 
     config = config or InverseConfig()
     U = np.asarray(u, dtype=float).ravel()

@@ -33,8 +33,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError
-from ..platform.fts_calibration import skew
-from ..platform.kinematics import rotation_matrix
+from ..platform.kinematics import rotation_matrix, skew
 
 __all__ = ["PARAMETERS", "PayloadIdentification", "inertia_about_com", "payload_parameters",
            "regressor"]

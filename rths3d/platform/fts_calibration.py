@@ -37,22 +37,12 @@ import math
 import numpy as np
 
 from ..errors import ConfigError
-from .kinematics import rotation_matrix
+from .kinematics import rotation_matrix, skew
 
 __all__ = ["FTSCalibration", "PayloadEstimator", "load_wrench", "orientations_to_matrices",
            "skew"]
 
 GRAVITY = 9.81
-
-
-def skew(v: np.ndarray) -> np.ndarray:
-    """Cross-product matrices ``[v]×`` of vectors (..., 3) → (..., 3, 3): ``[v]× w = v × w``."""
-    v = np.asarray(v, dtype=float)
-    S = np.zeros(v.shape[:-1] + (3, 3))
-    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
-    return S
 
 
 def orientations_to_matrices(orientations: np.ndarray, name: str = "orientations") -> np.ndarray:

@@ -28,6 +28,7 @@ __all__ = [
     "inverse_kinematics",
     "jacobian",
     "rotation_matrix",
+    "skew",
 ]
 
 
@@ -264,3 +265,13 @@ class ScalarIK:
             lz = tz + r20 * px + r21 * py - bz
             out.append(sqrt(lx * lx + ly * ly + lz * lz))
         return tuple(out)  # type: ignore[return-value]
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """Cross-product matrices ``[v]×`` of vectors (..., 3) → (..., 3, 3): ``[v]× w = v × w``."""
+    v = np.asarray(v, dtype=float)
+    S = np.zeros(v.shape[:-1] + (3, 3))
+    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
+    return S

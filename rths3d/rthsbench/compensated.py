@@ -163,7 +163,7 @@ class _Prescribed:
 
 CALIBRATION_SIGNAL = {"f_min": 0.2, "f_max": 30.0, "n_lines": 40, "period": 10.0,
                       "amplitude": 3e-4, "velocity": 5e-3}
-"""The predefined displacement test: a Schroeder multisine (``rths3d.platform.identify.
+"""The predefined displacement test: a Schroeder multisine (``rths3d.lti.identify.
 multisine``), lines 0.2–30 Hz, 0.3 mm each (less above 2.7 Hz: 5 mm/s per line)."""
 
 
@@ -173,7 +173,7 @@ def calibration_record(cfg: BenchmarkConfig | None = None, periods: int = 2,
     predefined displacement test of the PI-controlled actuator with the specimen: the
     multisine :data:`CALIBRATION_SIGNAL` (faded in over its first second) sent as y_p for
     ``periods`` periods, no ground motion; sensor noise and converters as in ``cfg``."""
-    from ..platform.identify import multisine
+    from ..lti.identify import multisine
 
     cfg = cfg or BenchmarkConfig()
     _, one = multisine(dt=cfg.dt, **CALIBRATION_SIGNAL)
