@@ -11,10 +11,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def module_graph(root: Path, package: str) -> dict[str, set[str]]:
+def module_graph(root: Path, package: str, runtime_only: bool = False
+                 ) -> dict[str, set[str]]:
     """``{module: modules it imports}`` over the ``.py`` files of ``root/package``; an
     import of a name from a package counts as an import of the submodule of that name when
-    there is one, else of the package."""
+    there is one, else of the package. ``runtime_only``: leave out the imports under
+    ``if TYPE_CHECKING:`` (annotations only)."""
     mods: dict[str, tuple[Path, bool]] = {}
     for p in (root / package).rglob("*.py"):
         parts = list(p.relative_to(root).with_suffix("").parts)
@@ -25,7 +27,15 @@ def module_graph(root: Path, package: str) -> dict[str, set[str]]:
     graph: dict[str, set[str]] = {m: set() for m in mods}
     for m, (p, is_pkg) in mods.items():
         here = m.split(".") if is_pkg else m.split(".")[:-1]
-        for node in ast.walk(ast.parse(p.read_text(encoding="utf-8"))):
+        tree = ast.parse(p.read_text(encoding="utf-8"))
+        typing_only: set[int] = set()
+        if runtime_only:
+            for node in ast.walk(tree):
+                if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+                    typing_only.update(id(n) for b in node.body for n in ast.walk(b))
+        for node in ast.walk(tree):
+            if id(node) in typing_only:
+                continue
             if isinstance(node, ast.ImportFrom):
                 if node.level:
                     base = here[: len(here) - node.level + 1]
@@ -120,3 +130,62 @@ def test_the_package_has_no_import_circle() -> None:
     graph = module_graph(ROOT, "rths3d")
     assert len(graph) > 100 and "rths3d.diagnose.rounds" in graph["rths3d.diagnose.engine"]
     assert circles(graph) == []
+
+
+LAYERS: tuple[tuple[str, ...], ...] = (
+    # the data flow, bottom up (docs/architecture.md): a module imports its own layer or lower
+    ("errors", "kernels", "jit", "record", "figures", "plausibility"),
+    ("config",),
+    ("lti", "effects", "network.simapp"),
+    ("numerical", "experiment", "compensation", "safety", "stepping"),
+    ("platform",),
+    ("transfer",),
+    ("bench",),
+    ("scene", "scene_bench", "scene_checks", "metadata", "reference"),
+    ("metrics._signals", "metrics.tracking", "metrics.reference"),
+    ("surrogate",),
+    ("metrics", "loop"),
+    ("_lifeline", "dataset", "ann", "rthsbench", "network"),
+    ("diagnose",),
+    ("viz", "cli", "__init__", "__main__"),
+)
+"""Each module's layer: the longest of these prefixes (after ``rths3d.``) that names it or
+its package."""
+
+PLUGINS = ("transfer.stewart", "transfer.legs", "transfer.remote", "compensation.inverse",
+           "experiment.marths_frame", "numerical.opensees")
+"""Registered components (a transfer system, a compensator, a part, a numerical kind) that
+join a lower layer through its registry and may use what sits above it: the Stewart
+platform's transfer system builds benches, the remote one speaks the network protocol, the
+maRTHS frame part is the benchmark's, the OpenSees substructure records signals."""
+
+
+def _layer(module: str) -> int:
+    name = module.removeprefix("rths3d.") if module != "rths3d" else "__init__"
+    best, depth = -1, -1
+    for i, prefixes in enumerate(LAYERS):
+        for p in prefixes:
+            if (name == p or name.startswith(p + ".")) and len(p) > depth:
+                best, depth = i, len(p)
+    assert best >= 0, f"{module} is in no layer of LAYERS"
+    return best
+
+
+def test_no_module_imports_upward_except_a_plugin() -> None:
+    """Every import (deferred ones included; type-only imports under TYPE_CHECKING aside)
+    goes to the importer's layer or a lower one, except from a registered plug-in."""
+    graph = module_graph(ROOT, "rths3d", runtime_only=True)
+    up = sorted(f"{m} -> {t}" for m, ts in graph.items() for t in ts
+                if _layer(t) > _layer(m)
+                and not any(m == f"rths3d.{p}" for p in PLUGINS))
+    assert up == []
+
+
+def test_the_layer_check_sees_an_upward_import() -> None:
+    """A lower layer's module importing a higher one is reported (the check can fail)."""
+    assert _layer("rths3d.platform.sim") < _layer("rths3d.loop")
+    assert _layer("rths3d.metrics.fidelity") > _layer("rths3d.surrogate.estimator")
+    graph = {"rths3d.platform.sim": {"rths3d.loop"}, "rths3d.loop": {"rths3d.platform.sim"}}
+    assert [(m, t) for m, ts in graph.items() for t in ts if _layer(t) > _layer(m)] == [
+        ("rths3d.platform.sim", "rths3d.loop")]
+    assert _layer("rths3d.metrics.tracking") < _layer("rths3d.surrogate.estimator")
