@@ -80,8 +80,8 @@ def _per_step_us(sub, steps: int) -> float:
 
 def _marths(root: Path, t_end: float | None) -> dict:
     """The maRTHS run with the internal frame and with the OpenSees frame (see above)."""
-    from rths3d.rthsbench.marths import MarthsConfig, run_marths
-    from rths3d.rthsbench.marths.opensees_frame import OpenSeesFrame
+    from rths3d.community.marths import MarthsConfig, run_marths
+    from rths3d.community.marths.opensees_frame import OpenSeesFrame
 
     cfg = MarthsConfig(t_end=t_end)
     run_marths(MarthsConfig(t_end=0.01))  # compiled once

@@ -68,7 +68,7 @@ def marths_case_s(repeats: int) -> tuple[float | None, float | None]:
     """Median wall time (s) of one maRTHS El Centro run with RoDeAC, and µs per step; None
     when the maRTHS data folder is absent."""
     from rths3d.errors import ConfigError
-    from rths3d.rthsbench.marths import MarthsConfig, data_dir, run_marths
+    from rths3d.community.marths import MarthsConfig, data_dir, run_marths
 
     try:
         data_dir()
@@ -89,7 +89,7 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="one repeat, fewer trials")
     args = ap.parse_args()
 
-    from rths3d.rthsbench import (
+    from rths3d.community import (
         PUBLISHED_TABLE3,
         BenchmarkConfig,
         load_excitation,
@@ -115,7 +115,7 @@ def main() -> None:
     row = res.table_row()
     dev = max(abs(row[k] - PUBLISHED_TABLE3[1][k]) for k in row if k != "J1")
     step_us = compensator_step_us(repeats, 5000 if args.quick else 20000)
-    from rths3d.rthsbench.compensated import calibrated_config, run_compensated
+    from rths3d.community.compensated import calibrated_config, run_compensated
 
     conf = calibrated_config("ats", cfg)
     run_compensated(BenchmarkConfig(case=1, t_end=1.0), "ats", conf, gm=gm)  # compile

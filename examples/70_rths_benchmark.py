@@ -12,14 +12,14 @@ import argparse
 
 import numpy as np
 
-from rths3d.rthsbench import (
+from rths3d.community import (
     PUBLISHED_TABLE3,
     BenchmarkConfig,
     load_excitation,
     run_case,
     run_trials,
 )
-from rths3d.rthsbench.plots import plot_result
+from rths3d.community.plots import plot_result
 
 J = [f"J{i}" for i in range(1, 10)]
 

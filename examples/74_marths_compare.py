@@ -28,7 +28,7 @@ KEYS = ("J2", "J5", "J6", "J7", "J8", "J9", "J10")
 
 def _winners(entries: dict, source: str) -> dict[str, str]:
     """Entry label → the compensator with the lowest value (ties: all of them)."""
-    from rths3d.rthsbench.marths.criteria import J_LABELS
+    from rths3d.community.marths.criteria import J_LABELS
 
     out = {}
     for k in KEYS:
@@ -45,7 +45,7 @@ def _winners(entries: dict, source: str) -> dict[str, str]:
 
 
 def markdown(res: dict, trials: int) -> str:
-    from rths3d.rthsbench.marths.criteria import J_LABELS
+    from rths3d.community.marths.criteria import J_LABELS
 
     cols = [f"{k}.{lab}" for k in KEYS for lab in J_LABELS[k]]
     lines = []
@@ -81,8 +81,8 @@ def main() -> None:
         ap.exit(2, f"error: --trials: {args.trials} (must be ≥ 0)\n")
     if args.t_end is not None and not args.t_end > 0:
         ap.exit(2, f"error: --t-end: {args.t_end} (must be > 0 s)\n")
-    from rths3d.rthsbench.marths.data import RECORDS
-    from rths3d.rthsbench.marths.summary import COMPARED, run_set
+    from rths3d.community.marths.data import RECORDS
+    from rths3d.community.marths.summary import COMPARED, run_set
 
     t0 = time.perf_counter()
     try:

@@ -1,7 +1,7 @@
 """How much RoDeAC's offline calibration (θ₀, P₀) depends on the sensor-noise realisation
 (docs/marths.md, "RoDeAC's initial parameters").
 
-Repeats :func:`rths3d.rthsbench.marths.offline_calibration` (99 runs: 3 records × {0.2,
+Repeats :func:`rths3d.community.marths.offline_calibration` (99 runs: 3 records × {0.2,
 0.4, 0.6} × [nominal + 10 perturbed plants, seed 123]) for noise seeds 0 … N−1 (one
 independent sequence per plant, as the package does) and prints, per seed, the largest
 relative difference of θ₀ and of each actuator's P₀ entries from the benchmark's stored
@@ -23,8 +23,8 @@ import numpy as np
 
 def main(argv: list[str] | None = None) -> int:
     from rths3d.errors import RthsError
-    from rths3d.rthsbench.marths import offline_calibration
-    from rths3d.rthsbench.marths.data import data_dir
+    from rths3d.community.marths import offline_calibration
+    from rths3d.community.marths.data import data_dir
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=20, help="noise seeds 0 … N−1")

@@ -58,8 +58,8 @@ _LAZY: dict[str, str] = {
     "Diagnosis": "rths3d.diagnose",
     "load_measurement": "rths3d.diagnose",
     # community benchmark
-    "BenchmarkConfig": "rths3d.rthsbench",
-    "run_case": "rths3d.rthsbench",
+    "BenchmarkConfig": "rths3d.community",
+    "run_case": "rths3d.community",
 }
 
 __all__ = [

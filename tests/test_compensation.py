@@ -380,7 +380,7 @@ def elcentro(rths_benchmark_dir):
 
 @pytest.fixture(scope="module")
 def calibration(rths_benchmark_dir):
-    from rths3d.rthsbench.compensated import calibration_record
+    from rths3d.community.compensated import calibration_record
 
     return calibration_record()
 
@@ -388,8 +388,8 @@ def calibration(rths_benchmark_dir):
 def test_lead_compensator_reproduces_the_benchmark_controller(elcentro):
     """The benchmark's own phase lead as a compensator through the compensated loop equals
     the benchmark's loop (run_case) sample for sample."""
-    from rths3d.rthsbench import BenchmarkConfig, run_case
-    from rths3d.rthsbench.compensated import run_compensated
+    from rths3d.community import BenchmarkConfig, run_case
+    from rths3d.community.compensated import run_compensated
 
     cfg = BenchmarkConfig(case=2, t_end=20.0)
     ref = run_case(cfg, gm=elcentro)
@@ -404,8 +404,8 @@ def test_ats_halves_j2_and_removes_the_delay_in_all_four_cases(elcentro, calibra
     """El Centro × 0.4, nominal plant, noise on: the calibrated ATS in place of the phase
     lead gives J1 ≤ 1 ms and at most half the benchmark controller's J2 (Table 3: 4.6 ms,
     9.1–10.5 %)."""
-    from rths3d.rthsbench import BenchmarkConfig, run_case
-    from rths3d.rthsbench.compensated import calibrated_config, run_compensated
+    from rths3d.community import BenchmarkConfig, run_case
+    from rths3d.community.compensated import calibrated_config, run_compensated
 
     conf = calibrated_config("ats", record=calibration)
     assert 0.009 < conf.a1 < 0.0115 and abs(conf.a0 - 1) < 0.02  # the PI loop: ≈ 10 ms
@@ -425,8 +425,8 @@ def test_twenty_perturbed_plants_stay_stable_and_keep_the_improvement(elcentro, 
     """Case 4 (the benchmark's largest errors) with 20 perturbed plants, the same draws for
     the benchmark's controller (``lead``) and the ATS: every run completes and the median
     J2 ratio stays ≤ 1/2, J1 ≤ 1 ms throughout."""
-    from rths3d.rthsbench import BenchmarkConfig
-    from rths3d.rthsbench.compensated import calibrated_config, run_compensated
+    from rths3d.community import BenchmarkConfig
+    from rths3d.community.compensated import calibrated_config, run_compensated
 
     cfg = BenchmarkConfig(case=4)
     conf = calibrated_config("ats", record=calibration)
@@ -443,8 +443,8 @@ def test_twenty_perturbed_plants_stay_stable_and_keep_the_improvement(elcentro, 
 def test_drifting_ats_stops_the_benchmark_run_with_the_reason(elcentro, calibration):
     """An a1 bound below the PI loop's ≈ 10 ms: the estimate stays outside, the run stops
     like at the force limit, with the samples up to the stop and the reason."""
-    from rths3d.rthsbench import BenchmarkConfig
-    from rths3d.rthsbench.compensated import calibrated_config, run_compensated
+    from rths3d.community import BenchmarkConfig
+    from rths3d.community.compensated import calibrated_config, run_compensated
 
     conf = calibrated_config("ats", params={"a1_bounds": [0.0, 0.009]}, record=calibration)
     assert conf.a1 == 0.009
@@ -499,9 +499,9 @@ def test_example_prints_usage_and_refuses_a_bad_plot_path(tmp_path):
 
 
 def test_compensated_result_becomes_a_record_with_its_compensator(elcentro, calibration, tmp_path):
+    from rths3d.community import BenchmarkConfig
+    from rths3d.community.compensated import calibrated_config, run_compensated
     from rths3d.record import Record
-    from rths3d.rthsbench import BenchmarkConfig
-    from rths3d.rthsbench.compensated import calibrated_config, run_compensated
 
     conf = calibrated_config("rls", record=calibration)
     res = run_compensated(BenchmarkConfig(case=1, t_end=8.0), "rls", conf, gm=elcentro,

@@ -145,7 +145,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("metrics._signals", "metrics.tracking", "metrics.reference"),
     ("surrogate",),
     ("metrics", "loop"),
-    ("_lifeline", "dataset", "ann", "rthsbench", "network"),
+    ("_lifeline", "dataset", "ann", "community", "rthsbench", "network"),
     ("diagnose",),
     ("viz", "cli", "__init__", "__main__"),
 )

@@ -16,8 +16,7 @@ import numpy as np
 import pytest
 from marths_reference import rk4_outputs, specimen_force, trapezoid
 
-from rths3d.compensation.rodeac import butter_ba
-from rths3d.rthsbench.marths import (
+from rths3d.community.marths import (
     COUPLER,
     NOMINAL,
     MarthsConfig,
@@ -28,6 +27,7 @@ from rths3d.rthsbench.marths import (
     specimen,
     structure,
 )
+from rths3d.compensation.rodeac import butter_ba
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("RTHS3D_SHARED") or REPO.parent / "shared")
@@ -158,7 +158,7 @@ def test_offline_calibration_reproduces_the_stored_theta0_and_p0(bench_dir):
     """99 open-loop runs (3 records × {0.2, 0.4, 0.6} × [nominal + 10 perturbed plants]):
     the means are within 1 % of the stored θ₀ (each element) and P₀; the package's
     rodeac_initial.json is this calibration."""
-    from rths3d.rthsbench.marths import offline_calibration, rodeac_initial
+    from rths3d.community.marths import offline_calibration, rodeac_initial
 
     cal = offline_calibration(data_path=str(bench_dir))
     assert len(cal.runs) == 99

@@ -19,10 +19,7 @@ from marths_reference import (
     trapezoid,
 )
 
-from rths3d.compensation import build
-from rths3d.compensation.rodeac import butter_ba, fit_inverse
-from rths3d.errors import ConfigError
-from rths3d.rthsbench.marths import (
+from rths3d.community.marths import (
     NOMINAL,
     MarthsConfig,
     find_delay,
@@ -34,6 +31,9 @@ from rths3d.rthsbench.marths import (
     run_marths,
     specimen,
 )
+from rths3d.compensation import build
+from rths3d.compensation.rodeac import butter_ba, fit_inverse
+from rths3d.errors import ConfigError
 
 FS = 1024.0
 DT = 1.0 / FS
@@ -268,7 +268,7 @@ def test_bad_configuration_names_the_field():
 
 
 def test_per_actuator_compensation_allocates_nothing_per_step(peak_bytes):
-    from rths3d.rthsbench.marths.engine import _Comps
+    from rths3d.community.marths.engine import _Comps
 
     K = 3
     conf = {"theta0": [1.0, 0.0, 0.0, 0.0], "p0": [1e4]}

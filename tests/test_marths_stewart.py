@@ -174,10 +174,10 @@ def test_scene_comparison_catches_a_changed_entry():
 
 
 def test_scene_is_the_marths_partition(data):
-    """scenes/marths_stewart.toml is what rths3d.rthsbench.marths.stewart writes from the
+    """scenes/marths_stewart.toml is what rths3d.community.marths.stewart writes from the
     benchmark's data, and its reduced substructure reproduces the benchmark's numerical
     static flexibility at the interface (x, θ) (static condensation is exact there)."""
-    from rths3d.rthsbench.marths.stewart import stewart_partition, stewart_scene
+    from rths3d.community.marths.stewart import stewart_partition, stewart_scene
 
     _assert_same_scene((REPO / "scenes" / "marths_stewart.toml").read_text(),
                        stewart_scene(str(data.parent)))

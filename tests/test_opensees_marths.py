@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from rths3d.community.marths import NOMINAL, MarthsConfig, run_marths
+from rths3d.community.marths.data import data_dir
+from rths3d.community.marths.opensees_frame import OpenSeesFrame
 from rths3d.errors import ConfigError
-from rths3d.rthsbench.marths import NOMINAL, MarthsConfig, run_marths
-from rths3d.rthsbench.marths.data import data_dir
-from rths3d.rthsbench.marths.opensees_frame import OpenSeesFrame
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = ROOT / "scenes" / "opensees" / "marths_frame.py"

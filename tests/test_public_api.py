@@ -68,6 +68,7 @@ MOVED = {
     "rths3d.scene_checks": ("rths3d.scene.checks", ("check_coupled_stability", "check_reach")),
     "rths3d.platform.identify": ("rths3d.lti.identify", ("multisine", "fit_transfer_function")),
     "rths3d.platform.fts_calibration": ("rths3d.platform.kinematics", ("skew",)),
+    "rths3d.rthsbench": ("rths3d.community", ("run_case", "BenchmarkConfig", "marths")),
     "rths3d.effects.blocks": ("rths3d.kernels", ("Block", "Chain", "run_chain", "run_blocks",
                                                  "padded_kernels", "njit", "inline_njit",
                                                  "block_kernel", "ready", "kernel_tuple",
@@ -75,7 +76,7 @@ MOVED = {
 }
 
 
-WHOLE = ("rths3d.jit", "rths3d.scene_bench", "rths3d.scene_checks")
+WHOLE = ("rths3d.jit", "rths3d.scene_bench", "rths3d.scene_checks", "rths3d.rthsbench")
 """Modules that moved as a whole: importing the old name warns."""
 
 

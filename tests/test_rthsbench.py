@@ -1,4 +1,4 @@
-"""Tests of the community RTHS benchmark reproduction (rths3d.rthsbench) against SPEC.md and Table 3."""
+"""Tests of the community RTHS benchmark reproduction (rths3d.community) against SPEC.md and Table 3."""
 
 from __future__ import annotations
 
@@ -8,10 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from rths3d.errors import ConfigError, SafetyStop
-from rths3d.lti import RK4Stepper, load_ground_motion
-from rths3d.metrics.criteria import j_criteria
-from rths3d.rthsbench import (
+from rths3d.community import (
     PUBLISHED_TABLE3,
     BenchmarkConfig,
     ControllerParams,
@@ -25,7 +22,10 @@ from rths3d.rthsbench import (
     run_case,
     run_trials,
 )
-from rths3d.rthsbench.stability import spectral_radius
+from rths3d.community.stability import spectral_radius
+from rths3d.errors import ConfigError, SafetyStop
+from rths3d.lti import RK4Stepper, load_ground_motion
+from rths3d.metrics.criteria import j_criteria
 
 J = [f"J{i}" for i in range(1, 10)]
 
@@ -164,7 +164,7 @@ def test_reference_response_converges_to_exact_solution(nominal):
     res = nominal[1]
     n = 4096 * 12
     m = case_matrices(1, 29.13, PlantParams().c_e, 1.19e6)
-    from rths3d.rthsbench.simulate import reference_system
+    from rths3d.community.simulate import reference_system
 
     st = RK4Stepper(reference_system(m), res.config.dt, substeps=8, input="linear")
     ag = res.ag[:n]
@@ -289,7 +289,7 @@ def test_record_hold_and_ideal_derivative_sensitivities(nominal, elcentro):
 
 def test_scene_file_and_overrides(tmp_path, rths_benchmark_dir):
     """A benchmark scene TOML sets plant, controller and I/O; overrides apply; bad keys name the field."""
-    from rths3d.rthsbench.scene import load_benchmark_scene
+    from rths3d.community.scene import load_benchmark_scene
 
     p = tmp_path / "s.toml"
     p.write_text('[benchmark]\ncase = 3\n[plant]\nk_e = 1.25e6\n'
@@ -363,7 +363,7 @@ def test_lower_loop_rate_raises_structural_error(elcentro):
 ])
 def test_bad_scene_values_name_field_value_and_type(item, message):
     """Each ill-typed scene value raises ConfigError `field: value (must be …)`."""
-    from rths3d.rthsbench.scene import config_from_dict
+    from rths3d.community.scene import config_from_dict
     from rths3d.scene import apply_overrides
 
     with pytest.raises(ConfigError) as ex:
@@ -373,7 +373,7 @@ def test_bad_scene_values_name_field_value_and_type(item, message):
 
 def test_good_scene_values_still_convert():
     """Well-typed scene values (ints for floats, lists, bools) give the configuration."""
-    from rths3d.rthsbench.scene import config_from_dict
+    from rths3d.community.scene import config_from_dict
 
     cfg = config_from_dict({"benchmark": {"case": 2, "dt": 1 / 2048, "intensity": 1},
                             "io": {"noise": False, "noise_seed": 3},
@@ -395,7 +395,7 @@ def test_intensity_must_be_positive(intensity):
 def test_data_folder_given_without_data_is_an_error(tmp_path):
     """`data_dir(path)` for a path without data/ (missing or a file) raises ConfigError naming
     it instead of falling back to the default data."""
-    from rths3d.rthsbench.config import data_dir
+    from rths3d.community.config import data_dir
 
     f = tmp_path / "f.csv"
     f.write_text("x")
@@ -407,7 +407,7 @@ def test_data_folder_given_without_data_is_an_error(tmp_path):
 def test_scene_that_is_a_folder_or_binary_is_config_error(tmp_path):
     """A folder or a binary file given as a benchmark scene raises ConfigError, not an OSError
     or UnicodeDecodeError."""
-    from rths3d.rthsbench.scene import load_benchmark_scene
+    from rths3d.community.scene import load_benchmark_scene
 
     binary = tmp_path / "bin.toml"
     binary.write_bytes(bytes(range(256)) * 4)
@@ -420,7 +420,7 @@ def test_cli_output_paths_checked_before_running_and_json_nan_is_null(tmp_path, 
                                                                      monkeypatch):
     """`--plot` under a file and `--data` without data/ exit 2 before any run; `--json`
     writes non-finite figures as null (strict JSON)."""
-    import rths3d.rthsbench as rb
+    import rths3d.community as rb
     from rths3d.cli import main
 
     calls = []

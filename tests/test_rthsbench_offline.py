@@ -17,9 +17,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from rths3d.errors import SafetyStop
-from rths3d.lti import RK4Stepper, load_ground_motion
-from rths3d.rthsbench import (
+from rths3d.community import (
     BenchmarkConfig,
     ControllerParams,
     PlantParams,
@@ -27,7 +25,9 @@ from rths3d.rthsbench import (
     run_case,
     run_trials,
 )
-from rths3d.rthsbench.stability import spectral_radius
+from rths3d.community.stability import spectral_radius
+from rths3d.errors import SafetyStop
+from rths3d.lti import RK4Stepper, load_ground_motion
 
 J = [f"J{i}" for i in range(1, 10)]
 DT_RECORD = 0.02  # s, as the benchmark's records
@@ -89,7 +89,7 @@ def test_nominal_cases_complete_with_the_loop_delay(nominal) -> None:
 
 def test_reference_response_converges_to_a_finer_integration(nominal) -> None:
     """The FOH reference equals an 8-substep RK4 integration of the reference structure."""
-    from rths3d.rthsbench.simulate import reference_system
+    from rths3d.community.simulate import reference_system
 
     res = nominal[1]
     n = 4096 * 8

@@ -81,8 +81,8 @@ def rths(
         raise ConfigError("--trials", trials, "must be ≥ 0")
     import numpy as np
 
-    from ..rthsbench import PUBLISHED_TABLE3, BenchmarkConfig, load_excitation, run_case, run_trials
-    from ..rthsbench.scene import config_from_dict, load_benchmark_scene
+    from ..community import PUBLISHED_TABLE3, BenchmarkConfig, load_excitation, run_case, run_trials
+    from ..community.scene import config_from_dict, load_benchmark_scene
     if plot:
         from ..figures import check_output, png_path
 
@@ -118,7 +118,7 @@ def rths(
     bench_trials: dict[int, list] = {}
     comp_first = None
     if comp_names:
-        from ..rthsbench.compensated import calibrated_config, calibration_record
+        from ..community.compensated import calibrated_config, calibration_record
 
         record = calibration_record(replace(base, case=1)) if calibrate else None
         for name in comp_names:
@@ -166,7 +166,7 @@ def rths(
                                                                  strict=True)}
                     entry["trials"]["median"] = _median_row(ok)
             if comp_names:
-                from ..rthsbench.compensated import run_compensated
+                from ..community.compensated import run_compensated
 
                 entry["compensators"] = {}
                 for name in comp_names:
@@ -178,7 +178,7 @@ def rths(
             out["cases"][str(c)] = entry
     keeper = Keeper()
     if plot:
-        from ..rthsbench.plots import plot_compensator, plot_result, plot_trials
+        from ..community.plots import plot_compensator, plot_result, plot_trials
 
         if comp_first is not None and len(comp_names) == 1:
             out["plot"] = str(keeper.write(lambda p: plot_result(comp_first, p), plot_path,
@@ -438,7 +438,7 @@ def marths(
                               "domain per process: the nominal plant only)")
         if not Path(opensees).is_file():
             raise ConfigError("--opensees", opensees, "file not found")
-    from ..rthsbench.marths.data import RECORDS, record_name
+    from ..community.marths.data import RECORDS, record_name
 
     if record.lower() == "all":
         records = list(RECORDS)
@@ -448,7 +448,7 @@ def marths(
         except ConfigError:
             raise ConfigError("--record", record, "must be ElCentro, Kobe, Morgan or all"
                               ) from None
-    from ..rthsbench.marths.summary import COMPARED
+    from ..community.marths.summary import COMPARED
 
     if compensator == "all":
         names = list(COMPARED)
@@ -460,7 +460,7 @@ def marths(
     if "lead" in names:
         raise ConfigError("--compensator", "lead", "the single-actuator benchmark's phase lead "
                           "has no maRTHS setting; choose another")
-    from ..rthsbench.marths.data import data_dir
+    from ..community.marths.data import data_dir
 
     data_path = str(data_dir(data or None))
     if plot:
@@ -469,13 +469,13 @@ def marths(
         plot_path = check_output(png_path(plot), "--plot")
     from rich.progress import Progress
 
-    from ..rthsbench.marths.criteria import J_LABELS
-    from ..rthsbench.marths.summary import run_set
+    from ..community.marths.criteria import J_LABELS
+    from ..community.marths.summary import run_set
 
     first: list = []
     frame = None
     if opensees:
-        from ..rthsbench.marths.opensees_frame import OpenSeesFrame
+        from ..community.marths.opensees_frame import OpenSeesFrame
 
         frame = OpenSeesFrame(opensees, 1.0 / 1024.0)
     try:
@@ -498,7 +498,7 @@ def marths(
     }
     keeper = Keeper()
     if plot and first:
-        from ..rthsbench.marths.plots import plot_run
+        from ..community.marths.plots import plot_run
 
         out["plot"] = str(keeper.write(lambda p: plot_run(first[0], p), plot_path, "--plot"))
     if as_json:

@@ -2,7 +2,7 @@
 
 The benchmark's physical substructure (Condori Uribe et al. 2023) is a one-storey, one-bay
 steel frame whose top node the actuators move in a translation x and a rotation θ; the
-benchmark simulates it as the tuned 5-DOF frame of :func:`rths3d.rthsbench.marths.model.
+benchmark simulates it as the tuned 5-DOF frame of :func:`rths3d.community.marths.model.
 specimen` ([X, θ1, θ2, θ3, θ4]) with the unmeasured rotations condensed statically,
 [θ2, θ3, θ4] = G [x, θ]. Here the same frame is tested through the platform's x and ry (ry
 is the benchmark's θ): its interface stiffness, damping and mass over (x, ry) are those the
@@ -37,7 +37,7 @@ TENDON_LENGTH = 0.5
 
 def frame_matrices() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(K_if N/m·N·N·m, C_if, M_if kg·kg·m²) of the benchmark's frame over (x, θ)."""
-    from ..rthsbench.marths.model import specimen
+    from ..community.marths.model import specimen
 
     s = specimen()
     T = np.vstack([np.eye(2), s.G])

@@ -4,7 +4,7 @@ converters, noise and ground-motion records.
 The design-time objects are python-control's (``control.StateSpace``; :class:`ContinuousSS`
 and :class:`DiscreteSS` add a few conveniences); what is ours is the per-step side: the
 steppers, difference equations, converters, noise and records. Used by the RTHS benchmark
-(:mod:`rths3d.rthsbench`) and the compensators.
+(:mod:`rths3d.community`) and the compensators.
 """
 
 from .controllers import DifferenceEquation, controller_from_dict, lead_lag, pi_controller

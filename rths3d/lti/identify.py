@@ -3,7 +3,7 @@ and the fit of a transfer function with a transport delay to a frequency respons
 
 Used by the platform's heave identification (:mod:`rths3d.platform.identify`), the
 inverse-model compensator's identification (:mod:`rths3d.compensation.inverse`) and the RTHS
-benchmark's calibration test (:mod:`rths3d.rthsbench.compensated`).
+benchmark's calibration test (:mod:`rths3d.community.compensated`).
 """
 
 from __future__ import annotations

@@ -1,22 +1,22 @@
-"""The community RTHS benchmark (Silva et al., benchmark control problem for real-time hybrid
-simulation) as an rths3d scene family: four partitioning cases of a 3-story frame, a
-servo-hydraulic transfer system with control–structure interaction, a PI + phase-lead
-controller at 4096 Hz, converters, noise, and the criteria J1–J9; and the same loop with
-any compensator of :mod:`rths3d.compensation` in place of the controller's phase lead
-(:func:`run_compensated`).
-"""
+"""Moved to :mod:`rths3d.community` (the community benchmark problems; "bench" names the
+physical bench, :mod:`rths3d.bench`). This name and its submodules still import, with a
+DeprecationWarning."""
 
-from .compensated import calibrated_config, calibration_record, run_compensated
-from .config import EXCITATIONS, BenchmarkConfig, ControllerParams, data_dir, load_excitation
-from .plant import PLANT_STD, PlantParams, plant_ss, plant_step_matrices, plant_tf
-from .published import PUBLISHED_TABLE3
-from .simulate import BenchmarkResult, reference_response, run_case, run_trials
-from .structure import CASES, case_matrices, frame_stiffness, modal_damping
+import importlib
+import sys
+import warnings
 
-__all__ = [
-    "CASES", "EXCITATIONS", "PLANT_STD", "PUBLISHED_TABLE3", "BenchmarkConfig",
-    "BenchmarkResult", "ControllerParams", "PlantParams", "calibrated_config",
-    "calibration_record", "case_matrices", "data_dir",
-    "frame_stiffness", "load_excitation", "modal_damping", "plant_ss", "plant_step_matrices",
-    "plant_tf", "reference_response", "run_case", "run_compensated", "run_trials",
-]
+from ..community import *  # noqa: F403
+from ..community import __all__  # noqa: F401
+
+_SUBMODULES = ("compensated", "config", "kernels", "marths", "marths.calibration",
+               "marths.criteria", "marths.data", "marths.engine", "marths.kernels",
+               "marths.model", "marths.opensees_frame", "marths.plant", "marths.plots",
+               "marths.stewart", "marths.summary", "plant", "plots", "published", "scene",
+               "simulate", "stability", "structure")
+
+for _name in _SUBMODULES:
+    sys.modules[f"{__name__}.{_name}"] = importlib.import_module(f"rths3d.community.{_name}")
+from ..community import marths  # noqa: E402, F401
+
+warnings.warn("rths3d.rthsbench moved to rths3d.community", DeprecationWarning, stacklevel=2)

@@ -1,6 +1,6 @@
 """The maRTHS partitioned frame through the MuJoCo Stewart platform: the scene.
 
-The numerical substructure is the benchmark's (:func:`rths3d.rthsbench.marths.model.
+The numerical substructure is the benchmark's (:func:`rths3d.community.marths.model.
 partition`: the 29-DOF reference minus the code's ideal physical model), reduced exactly to
 its DOFs with mass plus the interface rotation θ = −U21 (the other rotations are massless:
 static condensation, which is exact for a Rayleigh-damped structure from rest — the ideal
@@ -11,7 +11,7 @@ and θ = −U21 (the platform's ry); the experimental part is
 CSV of the benchmark folder, scaled by the intensity, loading the three floor sways through
 M_N (as the benchmark does).
 
-``python -m rths3d.rthsbench.marths.stewart [--data DIR] [--out FILE]`` writes the scene
+``python -m rths3d.community.marths.stewart [--data DIR] [--out FILE]`` writes the scene
 (``scenes/marths_stewart.toml``).
 """
 
@@ -90,8 +90,8 @@ def stewart_scene(data_path: str | None = None, record: str = "ElCentro",
     values = ", ".join(f"{v:.9g}" for v in rec[:, 1])
     return f"""\
 # maRTHS (Condori Uribe et al. 2023) through the MuJoCo Stewart platform: the benchmark's
-# partitioned one-bay frame, written by `python -m rths3d.rthsbench.marths.stewart` from
-# rths3d.rthsbench.marths (docs/marths.md, "Through the Stewart platform"):
+# partitioned one-bay frame, written by `python -m rths3d.community.marths.stewart` from
+# rths3d.community.marths (docs/marths.md, "Through the Stewart platform"):
 # - [numerical] M, C, K: the benchmark's numerical substructure (29-DOF SAP2000 reference
 #   minus the code's ideal physical model, Rayleigh 5 %; model.partition) reduced to the
 #   DOFs with mass plus the interface rotation (29-DOF indices

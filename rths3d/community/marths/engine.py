@@ -126,7 +126,7 @@ def structure(data_path: str | None = None) -> Partition:
 
 def rodeac_initial() -> tuple[tuple[float, ...], tuple[float, ...]]:
     """θ₀ (2 × 4) and P₀ (2 × 16) per actuator from the project's own offline calibration
-    (``rodeac_initial.json``, written by ``python -m rths3d.rthsbench.marths.calibration``)."""
+    (``rodeac_initial.json``, written by ``python -m rths3d.community.marths.calibration``)."""
     d = json.loads(INITIAL_FILE.read_text())
     th = tuple(float(v) for a in ("act1", "act2") for v in d["theta0"][a])
     p0 = tuple(float(v) for a in ("act1", "act2") for row in d["P0"][a] for v in row)

@@ -8,7 +8,7 @@ y_gc,k, held over the step. Then both continuous parts take one RK4 step: the nu
 substructure with ẍ_g linearly interpolated at the stage times and the force of the previous
 sample (unit delay), the plant with y_gc held and the CSI derivative block's stage rule. Both
 RK4 steps are linear, so they are precomputed as matrices (:func:`numerical_step_matrices`,
-:func:`rths3d.rthsbench.plant.plant_step_matrices`).
+:func:`rths3d.community.plant.plant_step_matrices`).
 
 The loop runs the compiled per-step kernels of :mod:`.kernels` (written once; the loop with a
 compensator in place of the phase lead, :mod:`.compensated`, calls the same kernels), one

@@ -9,7 +9,7 @@ parameters are their element-wise means over the runs (3 records × {0.2, 0.4, 0
 ``numpy.random.default_rng(seed)`` and used for every record and intensity; the noise is
 the benchmark's (std 0.0124 mm at 1024 Hz), seed ``noise_seed`` + plant index.
 
-``python -m rths3d.rthsbench.marths.calibration [--data DIR]`` writes the result to
+``python -m rths3d.community.marths.calibration [--data DIR]`` writes the result to
 ``rodeac_initial.json`` beside this module (the benchmark's default θ₀, P₀).
 """
 
@@ -113,7 +113,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     args = ap.parse_args(argv)
     cal = offline_calibration(data_path=args.data)
     d = cal.to_json()
-    d["_source"] = ("rths3d.rthsbench.marths.calibration.offline_calibration(): 3 records x "
+    d["_source"] = ("rths3d.community.marths.calibration.offline_calibration(): 3 records x "
                     "{0.2, 0.4, 0.6} x [nominal + 10 perturbed plants, seed 123]; means in m")
     INITIAL_FILE.write_text(json.dumps(d, indent=1) + "\n")
     print(json.dumps({"theta0": d["theta0"], "runs": d["runs"]}))
