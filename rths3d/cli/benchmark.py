@@ -15,7 +15,6 @@ from ._output import Keeper
 bench_app = typer.Typer(help="Community benchmarks reproduced with rths3d.", no_args_is_help=True)
 app.add_typer(bench_app, name="benchmark")
 
-J_KEYS = [f"J{i}" for i in range(1, 10)]
 
 
 def _fmt(v: float | None, width: int = 7) -> str:
@@ -69,6 +68,7 @@ def rths(
     """
     from dataclasses import replace
 
+    from ..community.trials import J_KEYS, trial_stats
     from ..errors import ConfigError
 
     # the cheap checks before the benchmark's (scipy) imports
@@ -79,7 +79,6 @@ def rths(
         trials = 20 if compensator else 0
     if trials < 0:
         raise ConfigError("--trials", trials, "must be ≥ 0")
-    import numpy as np
 
     from ..community import PUBLISHED_TABLE3, BenchmarkConfig, load_excitation, run_case, run_trials
     from ..community.scene import config_from_dict, load_benchmark_scene
@@ -152,19 +151,14 @@ def rths(
                 bench_trials[c] = rs
                 ok = [r for r in rs if r.status == "ok"]
                 trial_rows[c] = [r.table_row() for r in ok]
-                J = np.array([[r.table_row()[k] for k in J_KEYS] for r in ok]) if ok else None
                 entry["trials"] = {
                     "n": len(rs), "ok": len(ok),
                     "stopped": [r.reason for r in rs if r.status != "ok"],
                     "max_force_N": round(max(r.peak_force for r in rs), 1),
                 }
-                if J is not None:
-                    for stat, fn in (("mean", np.mean), ("std", np.std), ("min", np.min),
-                                     ("max", np.max)):
-                        entry["trials"][stat] = {k: round(float(v), 3)
-                                                 for k, v in zip(J_KEYS, fn(J, axis=0),
-                                                                 strict=True)}
-                    entry["trials"]["median"] = _median_row(ok)
+                if ok:
+                    entry["trials"].update(trial_stats(trial_rows[c],
+                                                       ("mean", "std", "min", "max", "median")))
             if comp_names:
                 from ..community.compensated import run_compensated
 
@@ -285,16 +279,11 @@ def _config_dict(config: Any) -> dict:
     return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(config).items()}
 
 
-def _median_row(results: list) -> dict:
-    import numpy as np
-
-    rows = [r.table_row() for r in results]
-    return {k: round(float(np.median([r[k] for r in rows])), 3) for k in J_KEYS}
-
-
 def _compensated_entry(rs: list, bench: list | None) -> dict:
     """The nominal run (first) and, with more, the perturbed trials of one compensator."""
     import numpy as np
+
+    from ..community.trials import J_KEYS, trial_stats
 
     r0 = rs[0]
     ok0 = r0.status == "ok" and bool(r0.j)
@@ -308,11 +297,8 @@ def _compensated_entry(rs: list, bench: list | None) -> dict:
                              "stopped": [r.reason for r in tr if r.status != "ok"],
                              "max_force_N": round(max(r.peak_force for r in tr), 1)}
         if ok:
-            J = np.array([[r.table_row()[k] for k in J_KEYS] for r in ok])
-            for stat, fn in (("median", np.median), ("mean", np.mean), ("std", np.std),
-                             ("min", np.min), ("max", np.max)):
-                t[stat] = {k: round(float(v), 3) for k, v in zip(J_KEYS, fn(J, axis=0),
-                                                                 strict=True)}
+            t.update(trial_stats([r.table_row() for r in ok],
+                                 ("median", "mean", "std", "min", "max")))
         if bench is not None and len(bench) == len(tr):
             ratios = [r.table_row()["J2"] / b.table_row()["J2"]
                       for r, b in zip(tr, bench, strict=True)
@@ -326,6 +312,8 @@ def _compensated_entry(rs: list, bench: list | None) -> dict:
 
 def _print_compensated(out: dict, base: Any, intensity: float, noise: bool, force_delay: bool,
                        convention: str, trials: int) -> None:
+    from ..community.trials import J_KEYS
+
     names = list(out["compensators"])
     typer.echo(f"RTHS benchmark: {base.excitation} × {intensity}, noise "
                f"{'on' if noise else 'off'}, force delay {'on' if force_delay else 'off'}, "
