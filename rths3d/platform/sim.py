@@ -13,27 +13,9 @@ The controller's conventions are each test's ``ActuatorConfig`` data (``hold``, 
 ``feedforward``); the defaults are the convention below (ramp, end, backward difference).
 
 Timing and zeroing convention (one for the vRTHS loop, the diagnosis' replay and synthetic
-measurements; docs/architecture.md, "The bench"):
-
-* the pose commanded at interface step k is the target for the end of the step, t_{k+1};
-  its leg set-point c_{k+1} = inverse kinematics + backward-difference velocity
-  feed-forward passes the controller's per-leg set-point blocks (lag, transport delay and the
-  bench's per-leg effects, :mod:`rths3d.effects.blocks`, at the interface rate) and then
-  gravity compensation (computed on the *nominal* model, what the controller knows) and the
-  per-leg encoder bias are added;
-* during the step the servo's set-point ramps linearly from c_k to c_{k+1} (a first-order
-  hold: the servo integrates the set-point rate, so it reaches c_{k+1} at t_{k+1}, with no
-  jumps that would excite the plate at every sample and make the sampled forces depend on
-  the sampling instant); MuJoCo integrates with RK4 by default, so the physics step drops
-  out (1 ms and 0.25 ms steps agree to well below sensor noise);
-* every channel is sampled at t_{k+1} from one consistent state: after the last substep
-  ``mj_forward`` evaluates the sensors and actuator forces (MuJoCo's own sensors after
-  ``mj_step`` describe the start of the last substep);
-* zero and tare are taken at measured rest after settling, as a bench does: the interface
-  displacement ``z_meas`` from the rest pose, the interface force ``f_meas`` and the leg
-  forces tared at rest. The absolute plate pose (``pose``) and the leg lengths (encoders)
-  are not re-zeroed; the raw FTS wrench (``wrench``) is zeroed unloaded (it carries the
-  payload's weight).
+measurements; docs/platform.md, "Timing and zeroing"): the pose commanded at step k is the
+target for t_{k+1}; the set-point ramps from c_k to c_{k+1} over the step; every channel is
+sampled at t_{k+1} from one state; zero and tare at measured rest after settling.
 """
 
 from __future__ import annotations
@@ -113,16 +95,10 @@ class PlatformBatch:
     the compensated weight relative to the nominal model's; ``fts_matrix`` (K, 6, 6) and
     ``fts_offset`` (K, 6): a miscalibrated FTS reads ``C w + b``.
 
-    The controller's conventions are each test's ``config.actuator`` data
-    (:class:`~rths3d.platform.model.ActuatorConfig`): ``hold`` (the servo's set-point ramps
-    to c_{k+1} over the step, or jumps to it at the start and is held), ``sample`` (the
-    measured channels — ``plate_qpos``, leg extensions and forces, FTS — are the state at
-    the end of the step, or at its start: one sample earlier, which :meth:`step_interface`
-    then hands to the loop) and ``feedforward`` (backward, central or none). ``replay``:
-    an open-loop replay of a known command series; it may set :attr:`poses_next` (the pose
-    commanded at the next step) for a central feed-forward, and every test is sampled at the
-    end (the replay shifts the rows of start-sampled tests itself). Without it a central
-    feed-forward is refused (a closed loop does not know its next set-point).
+    The controller's conventions (``hold``, ``sample``, ``feedforward``) are each test's
+    ``config.actuator`` data (:class:`~rths3d.platform.model.ActuatorConfig`). ``replay``: an
+    open-loop replay of a known command series; it may set :attr:`poses_next` for a central
+    feed-forward (refused in a closed loop) and samples every test at the end of the step.
 
     After changing masses or inertias of the batch in place (``batch.batch.body(name).mass
     = ...``) call ``reset(set_const=True)``. One test (``nsim = 1``) steps a plain ``MjData``.
@@ -197,21 +173,83 @@ class PlatformBatch:
             if len(nominal) != nsim:
                 raise ConfigError("nominal", len(nominal), f"need one per test ({nsim})")
             self._nominal = list(nominal)
+        self._bind_live_views()
+        self._controller_arrays(config, replay, bias, gravity_scale)
+        self._fts_arrays(fts_matrix, fts_offset)
+        self.setpoint_chain = self._setpoint_chain(config, blocks)
+        self.poses = np.zeros((nsim, 6))
+        """The poses (K, 6) commanded by the last step (m, rad, relative to home)."""
+        self.fresh = False
+        self.any_stopped = False
+        self.running = np.ones(nsim, dtype=np.bool_)
+        self.leg_hook = None
+        """Per-leg compensation (``transfer.compensate = "legs"``, :mod:`rths3d.transfer.legs`):
+        ``hook(L)`` writes the leg lengths (K, 6) m to command for :attr:`poses` before the
+        command limits and the set-point blocks (allocation-free); None: their inverse
+        kinematics."""
+        self._all = np.arange(nsim)
+        self._ids = self._all
+        self._wrows: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        self.stopped = np.zeros(nsim, dtype=bool)
+        self.reasons = [""] * nsim
+        self.stops: list[SafetyStop | None] = [None] * nsim
+        """The stop of each frozen test (None while it runs)."""
+        self.stop_time = np.full(nsim, np.nan)
+        self.rest_pose = np.zeros((nsim, 6))
+        """Plate pose at measured rest after settling (K, 6): the zero of ``z_meas``."""
+        self.rest_leg_forces = np.zeros((nsim, 6))
+        """Leg forces at measured rest (K, 6), N: their tare."""
+        self.k = 0
+        self.reset()
+
+    def _bind_live_views(self) -> None:
+        """Live views of every test's MuJoCo state the steps read and write (K rows)."""
+        ids = self.ids
         self._ctrl = self.batch.bind("ctrl")
+        self._act = self.batch.bind("act")
         self._qpos = self.batch.bind("qpos")
         self._qvel = self.batch.bind("qvel")
         self._sensor = self.batch.bind("sensordata")
         # the leg force: the servo's actuator, or with a servo lag after the hold
         # (leg{i}_lag actuators) both actuators' force on the slide
-        self._servo_lag = ids_lag = self.ids.lag_act.size > 0
+        self._servo_lag = ids_lag = ids.lag_act.size > 0
         self._force = self.batch.bind("qfrc_actuator" if ids_lag else "actuator_force")
         self._xmat = self.batch.bind("site_xmat")
-        g = config.geometry
+        self._a0 = int(ids.act[0])
+        self._s0 = int(self.model.actuator_actadr[ids.act[0]])
+        qs = int(ids.slide_qpos[1] - ids.slide_qpos[0])
+        self._q_slice = slice(int(ids.slide_qpos[0]), int(ids.slide_qpos[-1]) + 1, qs)
+        vs = int(ids.slide_dof[1] - ids.slide_dof[0])
+        self._v_slice = slice(int(ids.slide_dof[0]), int(ids.slide_dof[-1]) + 1, vs)
+        self.live_legs_q = self._qpos[:, self._q_slice]
+        self.live_legs_v = self._qvel[:, self._v_slice]
+        self.live_legs_f = self._force[:, self._v_slice] if self._servo_lag else \
+            self._force[:, self._a0:self._a0 + 6]
+        pa = ids.plate_qpos
+        self.live_qpos = self._qpos[:, pa:pa + 7]
+        """Live (K, 7) view of the plate's free-joint qpos (position m, quaternion wxyz)."""
+        fa, ta = ids.force_adr, ids.torque_adr
+        self._raw_force = self._sensor[:, fa:fa + 3]
+        self._raw_torque = self._sensor[:, ta:ta + 3]
+        la, qa = ids.legf_adr, ids.quat_adr
+        self.leg_force_sensor = self._sensor[:, la:la + 6]
+        """Live (K, 6) leg forces from the sensors (N): the start-of-step evaluation."""
+        self._fts_quat = self._sensor[:, qa:qa + 4]
+        self._live_R = self._xmat[:, ids.fts_site]  # the FTS orientation now
+
+    def _controller_arrays(self, config: PlatformConfig, replay: bool,
+                           bias: np.ndarray | None, gravity_scale: np.ndarray | None) -> None:
+        """The controller's geometry, limits and conventions per test, as arrays."""
+        nsim, g = self.nsim, config.geometry
         self.home_lengths = g.home_leg_lengths()
         self.half_stroke = config.stroke / 2
         self.velocity_limit = float(config.velocity_limit)
         self._vdt = self.velocity_limit * config.dt
         self.force_limit = float(config.force_limit)
+        # anchors for the per-step inverse kinematics (the controller's geometry)
+        self.ik_base_anchors = np.ascontiguousarray(g.base_anchors(), dtype=float)
+        self.ik_top_anchors = np.ascontiguousarray(g.top_anchors(), dtype=float)
+        self.home_height = float(g.home_height)
         # the controller's conventions per test, as data: velocity feed-forward gains on the
         # backward (ffg) and forward (ffn) differences of the leg lengths, hold and sampling
         gains = [_ff_gains(c) for c in self._cfgs]
@@ -233,35 +271,31 @@ class PlatformBatch:
         self.poses_next = np.zeros((nsim, 6))
         """The poses (K, 6) commanded at the next step (a replay's central feed-forward)."""
         self._Lnext = np.zeros((nsim, 6))
+        self.fts_R_start = np.zeros((nsim, 9))
+        self._L = np.zeros((nsim, 6))
+        self._sp = np.zeros((nsim, 6))
+        self._cprev = np.zeros((nsim, 6))
+        self._cnew = np.zeros((nsim, 6))
+        self._bias = np.zeros((nsim, 6)) if bias is None else \
+            np.ascontiguousarray(np.broadcast_to(bias, (nsim, 6)), dtype=float)
+        self._gscale = np.ones(nsim) if gravity_scale is None else \
+            np.asarray(np.broadcast_to(gravity_scale, (nsim,)), dtype=float)
+        self._nsub = int(config.substeps)
+        self._inv_dt = 1.0 / config.dt
+        # the servo's continuous lag after the hold: its actuators, activations and 1/τ
+        taus = np.array([c.actuator.servo_lag for c in self._cfgs])
+        if self._servo_lag and not np.all(taus > 0):
+            raise ConfigError("controller.lag", "servo", "tests stepped together need the "
+                              "same servo structure (a servo lag > 0 s in every test)")
         ids = self.ids
-        self._a0 = int(ids.act[0])
-        qs = int(ids.slide_qpos[1] - ids.slide_qpos[0])
-        self._q_slice = slice(int(ids.slide_qpos[0]), int(ids.slide_qpos[-1]) + 1, qs)
-        vs = int(ids.slide_dof[1] - ids.slide_dof[0])
-        self._v_slice = slice(int(ids.slide_dof[0]), int(ids.slide_dof[-1]) + 1, vs)
-        self.live_legs_q = self._qpos[:, self._q_slice]
-        self.live_legs_v = self._qvel[:, self._v_slice]
-        self.live_legs_f = self._force[:, self._v_slice] if self._servo_lag else \
-            self._force[:, self._a0:self._a0 + 6]
-        # anchors for the per-step inverse kinematics (the controller's geometry)
-        self.ik_base_anchors = np.ascontiguousarray(g.base_anchors(), dtype=float)
-        self.ik_top_anchors = np.ascontiguousarray(g.top_anchors(), dtype=float)
-        self.home_height = float(g.home_height)
-        pa = self.ids.plate_qpos
-        self.live_qpos = self._qpos[:, pa:pa + 7]
-        """Live (K, 7) view of the plate's free-joint qpos (position m, quaternion wxyz)."""
-        self.plate_qpos = self.live_qpos
-        """The measured plate qpos (K, 7) of the last sample (position m, quaternion wxyz):
-        the live view when every test samples at the end of the step."""
-        self.meas_legs_q = self.live_legs_q
-        """Measured leg extensions (K, 6) of the last sample, m (encoders: add
-        :meth:`encoder_lengths`)."""
-        self.meas_legs_f = self.live_legs_f
-        """Measured leg forces (K, 6) of the last sample, N."""
-        fa, ta = self.ids.force_adr, self.ids.torque_adr
-        self._raw_force = self._sensor[:, fa:fa + 3]
-        self._raw_torque = self._sensor[:, ta:ta + 3]
-        # the sensor's reading (K, 6): a copy of MuJoCo's, or C w + b of a miscalibrated one
+        self._lag = (int(ids.lag_act[0]), int(self.model.actuator_actadr[ids.lag_act[0]]),
+                     1.0 / taus) if self._servo_lag else (-1, -1, np.zeros(nsim))
+
+    def _fts_arrays(self, fts_matrix: np.ndarray | None, fts_offset: np.ndarray | None
+                    ) -> None:
+        """The sensor's reading (a copy of MuJoCo's, or C w + b of a miscalibrated one) and
+        the sample buffers of the measured channels."""
+        nsim = self.nsim
         self.fts_reading = np.zeros((nsim, 6))
         """Live (K, 6) raw FTS reading of the last sample (N, N·m), sensor frame."""
         self._fts_force = self.fts_reading[:, :3]
@@ -275,9 +309,16 @@ class PlatformBatch:
         else:
             self._fts_C = None
             self._fts_b = np.zeros((nsim, 6))
-        self._fts_R = self._xmat[:, self.ids.fts_site]
-        self._live_R = self._fts_R  # the FTS orientation now (the sampled one may lag)
         self._scratch: list = []  # (model, MjData) per test of a compiled range's batch
+        self.plate_qpos = self.live_qpos
+        """The measured plate qpos (K, 7) of the last sample (position m, quaternion wxyz):
+        the live view when every test samples at the end of the step."""
+        self.meas_legs_q = self.live_legs_q
+        """Measured leg extensions (K, 6) of the last sample, m (encoders: add
+        :meth:`encoder_lengths`)."""
+        self.meas_legs_f = self.live_legs_f
+        """Measured leg forces (K, 6) of the last sample, N."""
+        self._fts_R = self._live_R
         if self._any_start:
             # sample buffers: a start-sampled test keeps the state before its step's
             # set-point acts, an end-sampled one the state after
@@ -287,67 +328,19 @@ class PlatformBatch:
             self._fts_R = np.zeros((nsim, 9))
             if self._fts_C is None:
                 self._fts_C = np.tile(np.eye(6), (nsim, 1, 1))
-        la, qa = self.ids.legf_adr, self.ids.quat_adr
-        self.leg_force_sensor = self._sensor[:, la:la + 6]
-        """Live (K, 6) leg forces from the sensors (N): the start-of-step evaluation."""
-        self._fts_quat = self._sensor[:, qa:qa + 4]
-        self.fts_R_start = np.zeros((nsim, 9))
-        self._L = np.zeros((nsim, 6))
-        self._sp = np.zeros((nsim, 6))
-        self._cprev = np.zeros((nsim, 6))
-        self._cnew = np.zeros((nsim, 6))
-        self._bias = np.zeros((nsim, 6)) if bias is None else \
-            np.ascontiguousarray(np.broadcast_to(bias, (nsim, 6)), dtype=float)
-        self._gscale = np.ones(nsim) if gravity_scale is None else \
-            np.asarray(np.broadcast_to(gravity_scale, (nsim,)), dtype=float)
-        # the controller's set-point blocks: lag and transport delay of each test's settings,
-        # then the bench's per-leg blocks (effects)
+
+    def _setpoint_chain(self, config: PlatformConfig, blocks: Sequence[Block]) -> Chain:
+        """The controller's set-point blocks: lag and transport delay of each test's
+        settings, then the bench's per-leg blocks (effects)."""
         chain: list[Block] = []
         tcs = np.repeat([c.actuator.setpoint_lag for c in self._cfgs], 6)
         if np.any(tcs > 0):
-            chain.append(LagBlock(nsim, 6, tcs, config.dt))
+            chain.append(LagBlock(self.nsim, 6, tcs, config.dt))
         dls = np.repeat([c.actuator.delay for c in self._cfgs], 6)
         if np.any(dls > 0):
-            chain.append(DelayBlock(nsim, 6, dls, config.dt))
+            chain.append(DelayBlock(self.nsim, 6, dls, config.dt))
         chain.extend(blocks)
-        self.setpoint_chain = Chain(nsim, 6, chain)
-        self.poses = np.zeros((nsim, 6))
-        """The poses (K, 6) commanded by the last step (m, rad, relative to home)."""
-        self.fresh = False
-        self._nsub = int(config.substeps)
-        self._inv_dt = 1.0 / config.dt
-        self._act = self.batch.bind("act")
-        self._s0 = int(self.model.actuator_actadr[ids.act[0]])
-        # the servo's continuous lag after the hold: its actuators, activations and 1/τ
-        taus = np.array([c.actuator.servo_lag for c in self._cfgs])
-        if self._servo_lag and not np.all(taus > 0):
-            raise ConfigError("controller.lag", "servo", "tests stepped together need the "
-                              "same servo structure (a servo lag > 0 s in every test)")
-        self._lag = (int(ids.lag_act[0]), int(self.model.actuator_actadr[ids.lag_act[0]]),
-                     1.0 / taus) if self._servo_lag else (-1, -1, np.zeros(nsim))
-        self.any_stopped = False
-        self.running = np.ones(nsim, dtype=np.bool_)
-        self.leg_hook = None
-        """Per-leg compensation (``transfer.compensate = "legs"``, set by
-        :mod:`rths3d.transfer.legs`): ``hook(L)`` writes into L (K, 6) the leg lengths (m) to
-        command for :attr:`poses` — the inverse kinematics (same anchors ``_b``, ``_p``,
-        ``_hh``) compensated per leg — before the command limits are checked and the
-        set-points pass the set-point effects (allocation-free: it runs every step). None:
-        the inverse kinematics of the poses."""
-        self._all = np.arange(nsim)
-        self._ids = self._all
-        self._wrows: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
-        self.stopped = np.zeros(nsim, dtype=bool)
-        self.reasons = [""] * nsim
-        self.stops: list[SafetyStop | None] = [None] * nsim
-        """The stop of each frozen test (None while it runs)."""
-        self.stop_time = np.full(nsim, np.nan)
-        self.rest_pose = np.zeros((nsim, 6))
-        """Plate pose at measured rest after settling (K, 6): the zero of ``z_meas``."""
-        self.rest_leg_forces = np.zeros((nsim, 6))
-        """Leg forces at measured rest (K, 6), N: their tare."""
-        self.k = 0
-        self.reset()
+        return Chain(self.nsim, 6, chain)
 
     def reset(self, set_const: bool = False) -> None:
         """All tests to home with gravity compensation (of the nominal model), settle, take
