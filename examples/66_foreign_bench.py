@@ -15,8 +15,9 @@ the scene. Prints, and writes to ``results.json`` in the output folder:
   validation ≤ 1.2 after adding it, no statement of the description revised.
 
 Run: ``python examples/66_foreign_bench.py [--quick] [--kinds null,wrong,matrix]
-[--shard I/N] [--out DIR]`` (the full set takes about an hour on two shared cores; ``--quick``
-runs one case of each kind; ``--shard 0/2`` runs every second case, for two processes).
+[--shard I/N] [--bench rigid|servo] [--out DIR]`` (the full set takes about an hour on two
+shared cores; ``--quick`` runs one case of each kind; ``--shard 0/2`` runs every second case,
+for two processes; a bad argument: one ``error:`` line, exit code 2).
 """
 
 from __future__ import annotations
@@ -29,6 +30,12 @@ import time
 from pathlib import Path
 
 TESTS = Path(__file__).resolve().parents[1] / "tests"
+
+
+def _fail(message: str) -> None:
+    """Bad input: one line on stderr, exit code 2."""
+    print(message, file=sys.stderr)
+    raise SystemExit(2)
 
 
 def main() -> None:
@@ -49,13 +56,13 @@ def main() -> None:
         i0, n = (int(v) for v in args.shard.split("/"))
         assert 0 <= i0 < n
     except (ValueError, AssertionError):
-        sys.exit(f"error: --shard: {args.shard!r} must be I/N with 0 <= I < N")
+        _fail(f"error: --shard: {args.shard!r} must be I/N with 0 <= I < N")
     if bad:
-        sys.exit(f"error: --kinds: {sorted(bad)} not among null, wrong, matrix")
+        _fail(f"error: --kinds: {sorted(bad)} not among null, wrong, matrix")
     if args.bench not in ("rigid", "servo"):
-        sys.exit(f"error: --bench: {args.bench!r} must be rigid or servo")
+        _fail(f"error: --bench: {args.bench!r} must be rigid or servo")
     if not (TESTS / "foreign_bench.py").is_file():
-        sys.exit("error: tests/foreign_bench.py not found: run from a clone of the repository")
+        _fail("error: tests/foreign_bench.py not found: run from a clone of the repository")
     sys.path.insert(0, str(TESTS))
     import test_foreign_bench as fb
 

@@ -87,14 +87,23 @@ def test_decisive_rule(e0, e1, ok):
     assert DECISIVE == 0.75
 
 
-def test_lag_place_unstated_is_found_first(servo_record):
+@pytest.mark.parametrize("place", [None, "setpoint"])
+def test_lag_place_unstated_is_found_first(servo_record, place):
     """Described with the right lag and delay but without their place (a user who does not
-    know it): the place is proposed first and the record ends at noise."""
-    d = _diagnose(servo_record, timeconst=0.003, delay=0.001)
+    know it), or with the place stated wrong (``lag = "setpoint"``): the place is proposed
+    first and the record ends at noise; the stated place is contradicted decisively and the
+    proposal says so."""
+    kw = {} if place is None else {"lag": place}
+    d = _diagnose(servo_record, timeconst=0.003, delay=0.001, **kw)
     r = d.run()
     assert r.error_val > 5.0  # noise units: the place matters
     assert r.proposal is not None and r.proposal.effect == PREFIX + "controller.lag=servo"
-    assert not r.proposal.evidence  # the place was not stated: nothing contradicted
+    if place is None:
+        assert not r.proposal.evidence  # the place was not stated: nothing contradicted
+    else:
+        assert r.proposal.evidence.startswith(
+            "contradicts your description: stated controller.lag = 'setpoint', the "
+            "measurement says 'servo'")
     d.revise(r.proposal.effect)
     r2 = d.run()
     assert r2.error_val <= NOISE_LIKE and r2.proposal is None
