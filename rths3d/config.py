@@ -252,6 +252,36 @@ class PlatformDescription:
     fts_pose: tuple[float, ...] = ()
     geometry_file: str = ""
     given: tuple[str, ...] = ()
+    plate_inertia: tuple[float, ...] = ()
+    """The plate's principal moments (Ixx, Iyy, Izz) about its centre of mass along the plate's
+    axes, kg·m², the sensor housing included; empty: from the plate's shape (today's)."""
+    plate_com: tuple[float, ...] = ()
+    """The plate's centre of mass (x, y, z) in the plate frame, m (with ``plate_inertia``)."""
+
+
+def check_plate_inertial(inertia: Any, com: Any) -> tuple[tuple[float, ...],
+                                                          tuple[float, ...]]:
+    """The one validation of a stated plate inertia (``[platform] plate_inertia``, kg·m²,
+    principal moments about the centre of mass) and centre of mass (``plate_com``, m, plate
+    frame): both as float tuples (com (0, 0, 0) when only the inertia is given), or a
+    :class:`~rths3d.errors.ConfigError` naming the key, the value and the limit."""
+    def floats(key: str, v: Any) -> tuple[float, ...]:
+        try:
+            out = tuple(float(x) for x in v)
+        except (TypeError, ValueError):
+            raise ConfigError(f"platform.{key}", v, "need three numbers") from None
+        if len(out) != 3 or not all(math.isfinite(x) for x in out):
+            raise ConfigError(f"platform.{key}", list(v), "need three finite numbers")
+        return out
+
+    ii = floats("plate_inertia", inertia)
+    if min(ii) <= 0 or 2 * max(ii) > sum(ii) * (1 + 1e-12):
+        raise ConfigError("platform.plate_inertia", list(ii), "need Ixx, Iyy, Izz > 0 kg·m², "
+                          "each at most the sum of the other two")
+    c = floats("plate_com", com) if len(com) else (0.0, 0.0, 0.0)
+    if max(abs(x) for x in c) > 1.0:
+        raise ConfigError("platform.plate_com", list(c), "need |x|, |y|, |z| <= 1 m")
+    return ii, c
 
 
 @dataclass(frozen=True)

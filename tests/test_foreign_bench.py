@@ -548,3 +548,23 @@ def test_unmodelled_plate_inertia_revises_no_statement(tmp_path):
     assert any(c.effect.startswith("scene:transfer.") and "not decisive" in c.note
                for c in res[0].candidates)
     assert validation_error(diag) > 1.5  # the plate's inertia stays unexplained
+
+
+@pytest.mark.slow
+def test_plate_inertia_stated_in_the_scene_explains_the_disc_plate(tmp_path):
+    """The disc plate of the test above, now stated as its data sheet gives it
+    (``[platform] plate_inertia`` = m·R²/4, m·R²/4, m·R²/2 about its centre, ``plate_com`` at
+    the plate's centre): the record is only noise (≤ 1.2 noise units) and nothing is
+    proposed — the residual the model could not explain was the plate's inertia."""
+    spec = servo_bench()
+    m, r = plate_inertial(_model_of(write_scene(tmp_path, spec, description(spec))))[
+        "plate_mass"], 0.30
+    disc = (m * r * r / 4, m * r * r / 4, m * r * r / 2)  # kg·m²
+    rec = make_record(tmp_path, spec, seed=11, plate_ipos=(0.0, 0.0, 0.0),
+                      plate_iquat=(1.0, 0.0, 0.0, 0.0), plate_inertia=disc)
+    desc = description(spec)
+    desc["platform"] = {**desc["platform"], "plate_inertia": list(disc),
+                        "plate_com": [0.0, 0.0, 0.0]}
+    diag, res = _diagnose(tmp_path, spec, desc, rec, rounds=3)
+    assert diag.revisions == [] and diag.accepted == {}, diag.accepted
+    assert validation_error(diag) <= 1.2

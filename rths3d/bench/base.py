@@ -59,7 +59,8 @@ def platform_config(scene: Scene, substeps: int | None = None) -> PlatformConfig
     return PlatformConfig(geometry=p.geometry if p.geometry is not None else DEFAULT_GEOMETRY,
                           actuator=act, dt=scene.dt,
                           substeps=t.substeps if substeps is None else substeps,
-                          integrator=t.integrator, fts_pose=p.fts_pose)
+                          integrator=t.integrator, fts_pose=p.fts_pose,
+                          plate_inertia=p.plate_inertia, plate_com=p.plate_com)
 
 
 def _on(effects: Iterable[EffectConfig]) -> list[tuple[Effect, EffectConfig]]:

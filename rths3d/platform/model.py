@@ -42,6 +42,7 @@ from ..config import (
     SERVO_RANGES,
     ControllerConfig,
     TransferConfig,
+    check_plate_inertial,
     check_servo_number,
 )
 from ..errors import ConfigError
@@ -187,6 +188,12 @@ class PlatformConfig:
         sensor reports in it. Empty (the default): on the plate's axis, ``fts_height``
         above it, parallel to the plate. The sensor housing (``fts_mass``) fills the
         ``z`` between plate and site.
+    plate_inertia, plate_com:
+        The plate's principal moments of inertia (Ixx, Iyy, Izz) about its centre of mass,
+        along the plate's axes (kg·m²), and that centre (x, y, z in the plate frame, m), the
+        sensor housing included (mass ``plate_mass + fts_mass``). Empty (the default): from
+        the plate's and the housing's shapes (today's bench; a disc plate, a plate of
+        another shape states its own).
     """
 
     geometry: StewartGeometry = DEFAULT_GEOMETRY
@@ -198,6 +205,8 @@ class PlatformConfig:
     integrator: str = "RK4"
     gravity: float = 9.81
     fts_pose: tuple[float, ...] = ()
+    plate_inertia: tuple[float, ...] = ()
+    plate_com: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         _check("platform.dt", self.dt, math.isfinite(self.dt) and 1e-5 <= self.dt <= 0.02,
@@ -243,6 +252,10 @@ class PlatformConfig:
                    "need (x, y, z, rx, ry, rz): 0 < z <= 1 m above the plate, |angles| <= pi "
                    "rad")
             object.__setattr__(self, "fts_pose", fp)
+        if self.plate_inertia or self.plate_com:
+            ii, com = check_plate_inertial(self.plate_inertia, self.plate_com)
+            object.__setattr__(self, "plate_inertia", ii)
+            object.__setattr__(self, "plate_com", com)
         short = float(self.geometry.home_leg_lengths().min())
         _check("actuator.stroke", self.stroke, self.stroke / 2 < short,
                f"half the stroke must be shorter than the home leg length {short:.4g} m")
@@ -456,6 +469,12 @@ def model_xml(config: PlatformConfig, payload_xml: str | None = None,
         fts_h = float(pos[2])
         fts_geom_xy = _fmt(pos[:2])
         fts_at = f'pos="{_fmt(pos)}" quat="{_fmt(_quat_of(R))}"'
+    # a stated plate inertia replaces the one MuJoCo computes from the plate's and the
+    # housing's geoms (an <inertial> element overrides the geoms' in MJCF)
+    plate_inertial = "" if not config.plate_inertia else (
+        f'      <inertial pos="{_fmt(config.plate_com)}" '
+        f'mass="{g.plate_mass + g.fts_mass:.12g}" '
+        f'diaginertia="{_fmt(config.plate_inertia)}"/>\n')
     # the leg forces and the sensor's orientation as sensors too: evaluated only at the start
     # of a step (RK4's later stages overwrite actuator_force and site_xmat), so a replay can
     # read a step's end-of-step sample at the start of the next (rths3d.platform.sim)
@@ -486,8 +505,8 @@ def model_xml(config: PlatformConfig, payload_xml: str | None = None,
 {"".join(legs)}
     <body name="plate" pos="0 0 {g.home_height:.12g}">
       <freejoint name="plate_free"/>
-      <geom name="plate" class="platform" type="mesh" mesh="plate_mesh" mass="{g.plate_mass:.12g}"
-            rgba="0.55 0.6 0.68 1"/>
+{plate_inertial}      <geom name="plate" class="platform" type="mesh" mesh="plate_mesh"
+            mass="{g.plate_mass:.12g}" rgba="0.55 0.6 0.68 1"/>
 {anchors}
       <geom name="fts" class="platform" type="cylinder" size="{fts_r} {fts_h / 2:.12g}"
             pos="{fts_geom_xy} {fts_h / 2:.12g}" mass="{g.fts_mass:.12g}" rgba="0.85 0.55 0.1 1"/>

@@ -24,6 +24,7 @@ from ..config import (
     SERVO_RANGES,
     ControllerConfig,
     PlatformDescription,
+    check_plate_inertial,
     check_servo_number,
 )
 from ..errors import ConfigError
@@ -39,7 +40,8 @@ PATTERN = ("base_radius", "top_radius", "base_gap", "top_gap", "base_angle")
 """Geometry parameters of the parametric anchor pattern."""
 SCALARS = tuple(f.name for f in dataclasses.fields(StewartGeometry))
 """Every StewartGeometry field (m, rad, kg, N, m/s)."""
-PLATFORM_KEYS = (*SCALARS, "base_anchors", "top_anchors", "geometry_file", "fts_pose")
+PLATFORM_KEYS = (*SCALARS, "base_anchors", "top_anchors", "geometry_file", "fts_pose",
+                 "plate_inertia", "plate_com")
 
 
 def _number(field: str, v: Any, unit: str) -> float:
@@ -96,6 +98,12 @@ def platform_table(sec: Any) -> PlatformDescription:
             raise ConfigError("platform.fts_height", kw["fts_height"], f"differs from "
                               f"fts_pose z = {fts_pose[2]:g} m (give one of them)")
         kw["fts_height"] = fts_pose[2]
+    inertial: tuple[tuple[float, ...], tuple[float, ...]] = ((), ())
+    if "plate_inertia" in sec:
+        inertial = check_plate_inertial(sec["plate_inertia"], sec.get("plate_com", ()))
+    elif "plate_com" in sec:
+        raise ConfigError("platform.plate_com", sec["plate_com"], "needs plate_inertia (the "
+                          "moments about that centre)")
     explicit = "base_anchors" in sec or "top_anchors" in sec
     gfile = sec.get("geometry_file", "")
     if not isinstance(gfile, str):
@@ -136,7 +144,8 @@ def platform_table(sec: Any) -> PlatformDescription:
         if exc.field.startswith("platform."):
             raise
         raise _renamed(exc) from None
-    return PlatformDescription(geometry=geom, fts_pose=fts_pose,
+    return PlatformDescription(geometry=geom, fts_pose=fts_pose, plate_inertia=inertial[0],
+                               plate_com=inertial[1],
                                geometry_file=gfile, given=tuple(k for k in PLATFORM_KEYS
                                                                  if k in sec))
 
@@ -230,8 +239,8 @@ def platform_dict(desc: PlatformDescription) -> dict[str, Any]:
     for key in desc.given:
         if key == "geometry_file":
             out[key] = desc.geometry_file
-        elif key == "fts_pose":
-            out[key] = list(desc.fts_pose)
+        elif key in ("fts_pose", "plate_inertia", "plate_com"):
+            out[key] = list(getattr(desc, key))
         elif key == "base_anchors":
             out[key] = g.base_anchors().tolist()
         elif key == "top_anchors":
