@@ -55,6 +55,11 @@ def diagnose(
         help="Integrator of the screening probes: implicitfast (default, ≈ 0.4 of an RK4 "
              "replay; each probe's change anchored on the RK4 replay) or RK4. Refits, "
              "calibrations, revisions and the ranking's figures use the scene's own."),
+    baseline: Path | None = typer.Option(
+        None, "--baseline",
+        help="A record of the healthy bench running the same commands (the same test before "
+             "the change): the discrepancy common to both is taken out and what changed is "
+             "ranked."),
     hybrid: bool = typer.Option(False, "--hybrid",
                                 help="Run the uncalibrated and the calibrated scene closed "
                                      "loop and add their e_rel,track and FEI delay to the "
@@ -97,7 +102,14 @@ def diagnose(
         for line in origin:
             typer.echo(line)
     warns = [*warns, *bench_warns]
-    diag = Diagnosis(rec, sc, refit=refit, screen_integrator=screen_integrator)
+    healthy = None
+    if baseline is not None:
+        if not baseline.is_file():
+            raise ConfigError("--baseline", str(baseline), "file not found")
+        healthy, _, base_warns = load_measurement(baseline)
+        warns += [f"baseline: {w}" for w in base_warns]
+    diag = Diagnosis(rec, sc, refit=refit, screen_integrator=screen_integrator,
+                     baseline=healthy)
     warns += diag.warnings
     for name, value in adds:
         diag.add(name, value, fix=value is not None)

@@ -113,6 +113,12 @@ class Diagnosis(RoundStages, Calibrations):
         change, which is all the screening uses (a sensitivity Δ). Refits, calibrations,
         revisions and every figure of the ranking are replayed with the scene's integrator.
         ``"implicitfast"`` costs ≈ 0.4 of an RK4 replay (docs/diagnosis.md).
+    baseline:
+        A record of the healthy bench running the same command series (what a lab keeps:
+        the same test before the change). Its residual against the nominal model — the
+        discrepancy common to both records, e.g. what the scene cannot state — is taken out
+        of the measurement: the diagnosis ranks what changed, d = y − (y_healthy − ŷ₀), in
+        units of the noise of the difference (√2 σ for equal noise).
     """
 
     def __init__(self, record: Record, scene: Scene | None = None, *,
@@ -120,7 +126,8 @@ class Diagnosis(RoundStages, Calibrations):
                  refit: int = 8, min_gain: float = 0.01, substeps: int = 1, nthread: int = 2,
                  progress: Callable[[str], None] | None = None,
                  descriptions: Iterable[str] | None = None,
-                 screen_integrator: str | None = "implicitfast"):
+                 screen_integrator: str | None = "implicitfast",
+                 baseline: Record | None = None):
         chans = check_measurement(record)
         self.record = record
         self.warnings: list[str] = []
@@ -179,6 +186,9 @@ class Diagnosis(RoundStages, Calibrations):
         self._cache: dict[tuple, dict[str, np.ndarray]] = {}
         self.nsim = 0
         base = self.predict()
+        self.baseline = baseline
+        if baseline is not None:
+            self._take_out_baseline(baseline, base)
         self.sigma: dict[str, float] = {}
         for c in self.channels:
             r = (self.measured[c] - base[c])[1:]
@@ -186,6 +196,25 @@ class Diagnosis(RoundStages, Calibrations):
             self.sigma[c] = max(s, 1e-6 * float(np.std(self.measured[c])), 1e-12)
         self.waterfall: list[dict[str, Any]] = []
         self._log_step("baseline (nominal model)")
+
+    def _take_out_baseline(self, healthy: Record, base: Mapping[str, np.ndarray]) -> None:
+        """The measurement less the healthy record's residual against the nominal model
+        (``base``): both records must run the same commands on the same channels."""
+        if healthy.n != self.n or abs(healthy.dt - self.dt) > 1e-12 * self.dt:
+            raise ConfigError("baseline", f"{healthy.n} rows at {healthy.dt:g} s", "must have "
+                              f"the record's rows and sampling ({self.n} at {self.dt:g} s)")
+        cmd = ReplayInput.from_record(healthy, self.scene.dofs).poses
+        scale = max(float(np.max(np.abs(self._inp.poses))), 1e-12)
+        if float(np.max(np.abs(cmd - self._inp.poses))) > 1e-9 * scale:
+            raise ConfigError("baseline", "its pose commands", "must repeat the record's "
+                              "command series (the same test on the healthy bench)")
+        missing = [c for c in self.channels if c not in healthy.columns]
+        if missing:
+            raise ConfigError("baseline", ", ".join(missing[:3]), "channels the record has "
+                              "and the baseline lacks")
+        for c in self.channels:
+            common = np.asarray(healthy.columns[c], dtype=float) - base[c]
+            self.measured[c] = self.measured[c] - common
 
     # ------------------------------------------------------------------ model outputs
     def _key(self, effects: Mapping[str, float]) -> tuple:
