@@ -173,6 +173,12 @@ CASES: list[tuple[str, str, str, tuple[str, ...]]] = [
     ("diagnose-report-under-file", "diagnose {f}/rec.parquet --report {f}/blocker/r",
      "--report:", ()),
     ("diagnose-refit", "diagnose {f}/rec.parquet --refit 0", "'--refit'", ()),
+    ("diagnose-baseline-missing", "diagnose {f}/rec.parquet --baseline {f}/missing.parquet",
+     "--baseline", ()),
+    ("diagnose-baseline-short", "diagnose {f}/rec.parquet --baseline {f}/rec_short.parquet",
+     "--baseline", ()),
+    ("diagnose-baseline-other-test", "diagnose {f}/rec.parquet --baseline "
+     "{f}/rec_other.parquet", "must repeat the record's command series", ()),
     # ---- benchmark
     ("benchmark-case", "benchmark rths --case 9", "--case: 9", ()),
     ("benchmark-trials", "benchmark rths --trials -1", "--trials: -1", ()),
@@ -231,6 +237,8 @@ def _write_fixtures(f: Path) -> None:
     rec.save(f / "rec.parquet")
     Record(t, {k: v * 1e3 for k, v in rec.columns.items()}, {}).save(f / "rec_mm.parquet")
     rec.slice(0, 500).save(f / "rec_short.parquet")
+    Record(t, {"z_cmd.z": 1.1 * z, "z_meas.z": zm, "f_meas.z": 800.0 * zm}, {}).save(
+        f / "rec_other.parquet")
     Record(t, {"z_meas.z": zm, "f_meas.z": 800.0 * zm}, {}).save(f / "no_command.parquet")
     frame = pd.DataFrame({"t": t[:50], "z_cmd": z[:50], "z_meas": zm[:50]})
     nan = frame.copy()

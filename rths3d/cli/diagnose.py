@@ -75,7 +75,7 @@ def diagnose(
     from ..diagnose.candidates import is_revision
     from ..diagnose.engine import MULTI, SCREEN_INTEGRATORS
     from ..effects import parse_effect_arg
-    from ..errors import ConfigError
+    from ..errors import ConfigError, RthsError
     from ..figures import check_output
 
     if screen_integrator not in SCREEN_INTEGRATORS:
@@ -106,7 +106,10 @@ def diagnose(
     if baseline is not None:
         if not baseline.is_file():
             raise ConfigError("--baseline", str(baseline), "file not found")
-        healthy, _, base_warns = load_measurement(baseline)
+        try:
+            healthy, _, base_warns = load_measurement(baseline)
+        except RthsError as exc:
+            raise ConfigError("--baseline", str(baseline), str(exc)) from None
         warns += [f"baseline: {w}" for w in base_warns]
     diag = Diagnosis(rec, sc, refit=refit, screen_integrator=screen_integrator,
                      baseline=healthy)

@@ -185,10 +185,14 @@ class Diagnosis(RoundStages, Calibrations):
         self.cov: dict[str, tuple[float, float]] = {}
         self._cache: dict[tuple, dict[str, np.ndarray]] = {}
         self.nsim = 0
-        base = self.predict()
         self.baseline = baseline
         if baseline is not None:
-            self._take_out_baseline(baseline, base)
+            self._check_baseline(baseline)  # before any replay
+        base = self.predict()
+        if baseline is not None:  # the discrepancy common to both records taken out
+            for c in self.channels:
+                self.measured[c] = self.measured[c] - (
+                    np.asarray(baseline.columns[c], dtype=float) - base[c])
         self.sigma: dict[str, float] = {}
         for c in self.channels:
             r = (self.measured[c] - base[c])[1:]
@@ -197,9 +201,8 @@ class Diagnosis(RoundStages, Calibrations):
         self.waterfall: list[dict[str, Any]] = []
         self._log_step("baseline (nominal model)")
 
-    def _take_out_baseline(self, healthy: Record, base: Mapping[str, np.ndarray]) -> None:
-        """The measurement less the healthy record's residual against the nominal model
-        (``base``): both records must run the same commands on the same channels."""
+    def _check_baseline(self, healthy: Record) -> None:
+        """The healthy record runs the record's commands on its rows and channels."""
         if healthy.n != self.n or abs(healthy.dt - self.dt) > 1e-12 * self.dt:
             raise ConfigError("baseline", f"{healthy.n} rows at {healthy.dt:g} s", "must have "
                               f"the record's rows and sampling ({self.n} at {self.dt:g} s)")
@@ -212,9 +215,6 @@ class Diagnosis(RoundStages, Calibrations):
         if missing:
             raise ConfigError("baseline", ", ".join(missing[:3]), "channels the record has "
                               "and the baseline lacks")
-        for c in self.channels:
-            common = np.asarray(healthy.columns[c], dtype=float) - base[c]
-            self.measured[c] = self.measured[c] - common
 
     # ------------------------------------------------------------------ model outputs
     def _key(self, effects: Mapping[str, float]) -> tuple:
