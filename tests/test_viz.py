@@ -398,6 +398,15 @@ def test_headless_client_sees_scene_and_plot_updates_while_test_runs():
     assert 1.0 < t_last[-1] < 3.5  # paced at real time: about 2.5 s simulated in 2.5 s
 
 
+def _until_running(rows, timeout: float = 300.0) -> None:
+    """Wait until a live run has written some rows (its first steps wait for the compiled
+    loop, which a fresh clone compiles on its first run: tens of seconds)."""
+    end = time.monotonic() + timeout
+    while rows() < 20:
+        assert time.monotonic() < end, "the live run did not start"
+        time.sleep(0.05)
+
+
 def test_in_process_live_viewer_follows_the_newest_sample():
     """The in-process viewer of a live run shows the newest sample the loop has published."""
     from rths3d.scene import scene_with
@@ -407,6 +416,7 @@ def test_in_process_live_viewer_follows_the_newest_sample():
     run = LiveRun(scene, transfer="lti", speed=2.0, reference=False)
     v = run.viewer(port=0, rate=30).start()
     try:
+        _until_running(lambda: v.buffer.n)  # a cold cache compiles the loop first
         time.sleep(1.0)
         i = v.current_index()
         assert i == v.buffer.n - 1 or i == v.buffer.n - 2 or v.buffer.n - 1 - i < 50
@@ -427,6 +437,7 @@ def test_live_run_pauses_resumes_and_restarts_with_another_transfer():
     run = LiveRun(scene, transfer="stewart", speed=4.0, reference=False)
     buf = run.start()
     try:
+        _until_running(lambda: buf.n)  # a cold cache compiles the loop first
         time.sleep(0.5)
         run.pause()
         time.sleep(0.3)
