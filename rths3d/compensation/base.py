@@ -73,9 +73,12 @@ class Compensator(Protocol):
     def coefficients(self) -> dict[str, np.ndarray]: ...
 
 
-COMP_SIG = numba.types.void(F2, F2, F1, F1, F1, F1)
+COMP_SIG = numba.types.boolean(F2, F2, F1, F1, F1, F1)
 """Signature of a compensator's per-step kernel for the compiled loop: (params (R, P),
-state (R, S), z (R,), ż (R,), z_meas (R,), u (R,)) over R = K·n rows."""
+state (R, S), z (R,), ż (R,), z_meas (R,), u (R,)) over R = K·n rows (test-major: row
+k·n + j), returning True when it raised a new safety event (a drifting adaptive
+compensator: the loop hands the step back to Python, which turns it into the stop through
+the compensator's ``events(call)``)."""
 
 
 def comp_kernel(fn: Any) -> Any:
@@ -361,6 +364,9 @@ class BaseCompensator:
     Config: ClassVar[type] = CompensatorConfig
     rank: ClassVar[int] = 100
     """Position in listings and ``all`` tables (fixed schemes first, then adaptive ones)."""
+    adaptive: ClassVar[bool] = False
+    """Whether its coefficients change during a test (its :meth:`history` is copied after
+    every step) and its kernel may raise safety events (:meth:`events`)."""
 
     def __init__(self, config: Any, K: int, n: int, dt: float):
         if not (isinstance(K, Integral) and K >= 1 and isinstance(n, Integral) and n >= 1):
@@ -427,6 +433,12 @@ class BaseCompensator:
         kernel (the compiled loop runs it); None for those stepped from Python."""
         return None
 
+    def events(self, call: int | None = None, tests: slice = slice(None)) -> None:
+        """Turn the safety events its kernel raised for ``tests`` (a :data:`COMP_SIG` kernel
+        returned True) into stops at call ``call``; nothing for a compensator without
+        any."""
+        return None
+
     # -- stops -------------------------------------------------------------------------
     def _stop(self, k: int, quantity: str, value: float, limit: float, unit: str = "",
               call: int | None = None) -> None:
@@ -441,10 +453,12 @@ class BaseCompensator:
         self.reasons[k] = stop.reason
 
     def _events(self, code: np.ndarray, value: np.ndarray, limit: np.ndarray,
-                labels: Sequence[str], units: Sequence[str]) -> None:
-        """Turn kernel events into stops: ``code`` (K, n) int (0: none, i ≥ 1: ``labels[i-1]``),
-        with the offending ``value`` and ``limit`` (K, n)."""
-        for k in range(self.K):
+                labels: Sequence[str], units: Sequence[str], call: int | None = None,
+                tests: slice = slice(None)) -> None:
+        """Turn kernel events into stops: ``code`` (K, n) (0: none, i ≥ 1: ``labels[i-1]``),
+        with the offending ``value`` and ``limit`` (K, n), at call ``call`` (default: this
+        one), for ``tests``."""
+        for k in range(self.K)[tests]:
             if self.stops[k] is not None:
                 continue
             hit = np.flatnonzero(code[k])
@@ -453,7 +467,7 @@ class BaseCompensator:
                 c = int(code[k, j]) - 1
                 label = labels[c].format(ch=j)
                 self._stop(k, f"{self.name} {label}", float(value[k, j]),
-                           float(limit[k, j]), units[c])
+                           float(limit[k, j]), units[c], call)
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(K={self.K}, n={self.n}, dt={self.dt:g}, {self.config})"

@@ -2,7 +2,8 @@
 
 :func:`closed_range` advances a range of interface steps of K tests in one compiled call:
 the linear numerical substructure's step (:func:`~rths3d.numerical._kernels.linear_step`)
-and the command check, the compensator's kernel (fixed schemes with ``compiled()``), the
+and the command check, the compensator's kernel (those with ``compiled()``: the fixed
+schemes, ATS with its adaptation and drift stop), the
 platform's step as :meth:`PlatformBatch.advance <rths3d.platform.sim.PlatformBatch.advance>`
 takes it (inverse kinematics, set-point blocks, the servo's hold, ``mj_step``/``mj_forward``
 through MuJoCo's C API, :mod:`rths3d.platform.compiled`), the FTS and sampling, the sensor
@@ -164,7 +165,8 @@ def closed_range(n0, n1, w0, k0, num, mon, rec, comp, io, sens, znz, hist, plat)
     buffers' first row; ``k0``: the platform's step count at n0. Returns (steps done,
     code): code 0 ran through (or every test stopped); 1 the last step done stopped a test
     on the platform's side (``cmd[0]``: by a command limit, its L − L_home and ΔL in
-    ``cmd[1]``, ``cmd[2]``), the driver finishes it."""
+    ``cmd[1]``, ``cmd[2]``) or raised a compensator's safety event, the driver finishes
+    it."""
     Ad, Bf, P, s, s_next, Czx, Czv, Cx = num
     (lim_z, lim_v, lim_x, lim_f, g_win, g_fac, g_n, g_floor, g_pk, g_prev, g_base, g_cnt,
      active, code, dof, value, row) = mon
@@ -195,13 +197,14 @@ def closed_range(n0, n1, w0, k0, num, mon, rec, comp, io, sens, znz, hist, plat)
             _halt(P, s, active, row, n, True)
             if not active.any():
                 return n - n0, 0
-        cf[0](cp, cs, zr, zdr, zmr, ur)
+        # an adaptive compensator's drift or oscillation stop: the step is taken in full,
+        # then handed back (the driver turns the event into the stop)
+        event = cf[0](cp, cs, zr, zdr, zmr, ur)
         interface_command(u, idx, poses)
         # the platform's step (PlatformBatch.advance, sample=True)
         if any_start:
             take_sample(start, True, qlive, legs_q, legs_f, Rlive, tq, tlq, tlf, tR, sf, st, C,
                         bo, reading)
-        event = False
         cmd_flag[0] = False
         if leg_setpoints(poses, b, p, hh, home, ffg, Lprev, L, sp, half, vdt, run, True,
                          ffn, Lnext, ahead):
@@ -270,7 +273,7 @@ _CLOSED = AnyLayout(closed_range)
 
 def closed_ok(transfer: Any) -> bool:
     """Whether the compiled closed loop can step this Stewart transfer system: a compensator
-    with a kernel (fixed schemes, per interface DOF), inverse kinematics of the poses (no
+    with a kernel (fixed schemes and ATS, per interface DOF), inverse kinematics of the poses (no
     per-leg hook), no noise in the set-point blocks, no per-test model fields expanded
     inside a ``mujoco.batch.Batch``, at most one noise block in the sensor chain."""
     from .ranges import compiled_ok
@@ -475,6 +478,14 @@ class ClosedRange:
         if sim.any_stopped:
             tr.stopped[:] = sim.stopped
             tr.reasons = list(sim.reasons)
+        comp = tr.compensator
+        if comp.adaptive:  # its kernel's new events (StewartTransfer.step's order)
+            comp.events(n, sl)
+            if comp.any_stopped:
+                for kk in np.flatnonzero(comp.stopped[sl] & ~tr.stopped[sl]):
+                    kk = a + int(kk)
+                    tr.stopped[kk] = True
+                    tr.reasons[kk] = comp.reasons[kk]
         for j in np.flatnonzero(tr.stopped[sl] & mon.active[sl]):
             kk = a + int(j)
             mon.stop(kk, tr.reasons[kk], n)
