@@ -99,6 +99,25 @@ def test_ats_compiled_equals_python_with_adaptation_and_a_drift_stop(monkeypatch
         assert np.ptp(r.record.columns["comp.a1.z"]) > 5e-4
 
 
+def test_per_leg_ats_compiled_equals_python_with_a_drift_stop_naming_the_leg(monkeypatch):
+    """ATS on the six legs (the platform's leg hook) steps inside the compiled closed loop:
+    the leg channels, the leg compensator's kernel and the commanded lengths give the Python
+    driver's record, and a drifting leg compensator stops its test at the same row with
+    the leg named."""
+    sc = load_scene(SCENE, ["duration=0.8", "transfer.kind='stewart'", "transfer.delay=0.005",
+                            "transfer.compensation='ats'", "transfer.compensate='legs'",
+                            "transfer.compensator.window=0.25"])
+    sets = [{}, {"transfer.delay": 0.02}, {"transfer.compensator.a1_bounds": [0.0, 0.002]}]
+    a, b = _both(monkeypatch, lambda: run_batch(sc, sets, reference=False))
+    for ra, rb in zip(a, b, strict=True):
+        _same(ra, rb)
+    assert [r.status for r in a] == ["ok", "ok", "stopped"]
+    assert "ats a1 estimate (leg 0) outside its bounds" in a[2].reason
+    assert 300 < len(a[2].record.t) < 801
+    for r in a[:2]:  # the legs' coefficients adapted (s)
+        assert np.ptp(r.record.columns["comp.a1.leg0"]) > 5e-4
+
+
 @pytest.mark.slow  # the Python path of a six-DOF Stewart test
 def test_ats_six_dof_compiled_equals_python(monkeypatch):
     sc = load_scene(SCENE.parent / "bench6.toml", [
