@@ -156,8 +156,7 @@ class ChainTransfer:
     def compiled(self) -> CompiledTransfer | None:
         part = self.part.compiled()
         comp = self.compensator.compiled()
-        if part is None or comp is None or self.compensator.adaptive:
-            # the 1-D range loop neither copies the coefficients nor hands events back
+        if part is None or comp is None:
             return None
         a, s = self.actuator, self.sensor
         return CompiledTransfer(comp,
