@@ -25,6 +25,8 @@ Prints ONE JSON line:
                      DOF from the predicted delay), runs alternated side by side; floor 1.15
   ats_legs_over_none_time  the same with ATS on each of the six legs (transfer.compensate =
                      "legs": the platform's leg hook)
+  ats_loop, ats_legs_loop  the loop those compensated tests took (record meta "loop":
+                     compiled or python)
 Medians over repeats; ratios measured side by side in one run. ``--quick``: 2 s tests, one
 repeat (figures noisier).
 """
@@ -116,11 +118,13 @@ def main() -> None:
         rtf_lti.append(run(sc, "lti", reference=False).rtf)
     # the compensator's cost on the Stewart path: the same test with and without, alternated
     walls: dict[str, list[float]] = {k: [] for k in comp}
+    loops: dict[str, str] = {}
     for _ in range(max(reps, 3)):
         for name, sc_c in comp.items():
             r = run(sc_c, reference=False)
             assert r.status == "ok", r.reason
             walls[name].append(r.wall)
+            loops[name] = r.record.meta["loop"]
     t0 = time.perf_counter()
     reference_solution([sc])
     rtf_ref = sc.duration / (time.perf_counter() - t0)
@@ -177,6 +181,7 @@ def main() -> None:
         "ats_over_none_time": round(med(walls["ats"]) / med(walls["none"]), 3),
         "ats_legs_over_none_time": round(med(walls["ats_legs"]) / med(walls["none"]), 3),
         "ats_path": "stewart",
+        "ats_loop": loops["ats"], "ats_legs_loop": loops["ats_legs"],
         "k_stewart": args.k_stewart, "k_lti": args.k_lti, "duration_s": duration,
         "quick": args.quick,
     }))
