@@ -163,3 +163,19 @@ def test_plugin_compensator_without_kernel_runs_on_the_python_path(monkeypatch):
         x, y = np.asarray(plug.record.columns[c]), np.asarray(vel.record.columns[c])
         assert np.max(np.abs(x - y)) <= 1e-12 * np.max(np.abs(y)), c
     assert np.ptp(vel.record.columns["z_meas.z"]) > 1e-4
+
+
+@pytest.mark.parametrize("where", ["interface", "legs"])
+def test_rls_compiled_equals_python_with_a_drift_stop(monkeypatch, where):
+    """RLS per interface DOF and per leg in the compiled closed loop: the Python driver's
+    record, and a lead time held outside its bounds stops the test at the same row."""
+    sc = load_scene(SCENE, ["duration=0.6", "transfer.kind='stewart'", "transfer.delay=0.005",
+                            "transfer.compensation='rls'", f"transfer.compensate='{where}'"])
+    sets = [{}, {"transfer.compensator.lead_bounds": [0.0, 0.002]}]
+    a, b = _both(monkeypatch, lambda: run_batch(sc, sets, reference=False))
+    for ra, rb in zip(a, b, strict=True):
+        _same(ra, rb)
+    ch = "leg 0" if where == "legs" else "channel 0"
+    assert a[0].status == "ok" and f"rls lead time ({ch}) outside its bounds" in a[1].reason
+    col = "comp.theta0." + ("leg0" if where == "legs" else "z")
+    assert np.ptp(a[0].record.columns[col]) > 1e-6  # θ adapted: the equality covers it

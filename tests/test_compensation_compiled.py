@@ -46,3 +46,14 @@ def test_ats_on_the_lti_path_compiled_equals_python_with_a_drift_stop(monkeypatc
     assert 300 < len(a[2].record.t) < 1001
     for r in a[:2]:  # the coefficients adapted (s): the equality covers the adaptation
         assert np.ptp(r.record.columns["comp.a1.z"]) > 1e-5
+
+
+def test_rls_on_the_lti_path_compiled_equals_python_with_a_drift_stop(monkeypatch):
+    sc = load_scene(SCENE, ["duration=0.6", "transfer.kind='lti'", "transfer.delay=0.005",
+                            "transfer.compensation='rls'"])
+    sets = [{}, {"transfer.compensator.lead_bounds": [0.0, 0.002]}]
+    a, b = _both(monkeypatch, lambda: run_batch(sc, sets, reference=False))
+    for ra, rb in zip(a, b, strict=True):
+        _same(ra, rb)
+    assert a[0].status == "ok" and "rls lead time (channel 0)" in a[1].reason
+    assert np.ptp(a[0].record.columns["comp.theta0.z"]) > 1e-6
