@@ -3,16 +3,18 @@
 :func:`closed_range` advances a range of interface steps of K tests in one compiled call:
 the linear numerical substructure's step (:func:`~rths3d.numerical._kernels.linear_step`)
 and the command check, the compensator's kernel (those with ``compiled()``: the fixed
-schemes, ATS with its adaptation and drift stop), the
+schemes, ATS and RLS with their adaptation and drift stops; per interface DOF, or per leg
+in place of the platform's leg hook), the
 platform's step as :meth:`PlatformBatch.advance <rths3d.platform.sim.PlatformBatch.advance>`
 takes it (inverse kinematics, set-point blocks, the servo's hold, ``mj_step``/``mj_forward``
 through MuJoCo's C API, :mod:`rths3d.platform.compiled`), the FTS and sampling, the sensor
 chain and the measurement noise (draws taken before the range, in the order the Python
 driver draws them), the copies of the record signals, the record row and the force
 checks. A step in which the platform stops a test (a command or measured limit, a
-divergence) is taken in full and ends the call; :class:`ClosedRange` then does what needs
-Python for it (the :class:`~rths3d.errors.SafetyStop` and its reason, the monitor's stop)
-with the Python driver's own methods, and the next call goes on. The Python driver
+divergence) or the compensator raises its drift stop is taken in full and ends the call;
+:class:`ClosedRange` then does what needs Python for it (the
+:class:`~rths3d.errors.SafetyStop` and its reason, the monitor's stop) with the Python
+driver's own methods, and the next call goes on. The Python driver
 (:meth:`rths3d.loop._Group._python`) stays the readable reference; both give the same
 record (tests/test_closed_stewart.py).
 """
@@ -286,7 +288,7 @@ _CLOSED = AnyLayout(closed_range)
 
 def closed_ok(transfer: Any) -> bool:
     """Whether the compiled closed loop can step this Stewart transfer system: a compensator
-    with a kernel (fixed schemes and ATS, per interface DOF or per leg through the
+    with a kernel (fixed schemes, ATS, RLS; per interface DOF, or per leg in place of the
     platform's hook), no noise in the set-point blocks, no per-test model fields expanded
     inside a ``mujoco.batch.Batch``, at most one noise block in the sensor chain."""
     from .ranges import compiled_ok
