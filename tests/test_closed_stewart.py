@@ -165,17 +165,26 @@ def test_plugin_compensator_without_kernel_runs_on_the_python_path(monkeypatch):
     assert np.ptp(vel.record.columns["z_meas.z"]) > 1e-4
 
 
+DRIFT = {  # a setting whose bound the estimate leaves, and the start of its stop reason
+    "rls": ({"transfer.compensator.lead_bounds": [0.0, 0.002]}, "rls lead time"),
+    "rodeac": ({"transfer.compensator.gain_bounds": [0.95, 0.99]},
+               "rodeac inverse DC gain Σθ"),
+}
+
+
+@pytest.mark.parametrize("comp", ["rls", "rodeac"])
 @pytest.mark.parametrize("where", ["interface", "legs"])
-def test_rls_compiled_equals_python_with_a_drift_stop(monkeypatch, where):
-    """RLS per interface DOF and per leg in the compiled closed loop: the Python driver's
-    record, and a lead time held outside its bounds stops the test at the same row."""
+def test_rls_and_rodeac_compiled_equal_python_with_a_drift_stop(monkeypatch, comp, where):
+    """RLS and RoDeAC per interface DOF and per leg in the compiled closed loop: the Python
+    driver's record, and an estimate held outside its bounds stops the test at the same
+    row with the channel named."""
     sc = load_scene(SCENE, ["duration=0.6", "transfer.kind='stewart'", "transfer.delay=0.005",
-                            "transfer.compensation='rls'", f"transfer.compensate='{where}'"])
-    sets = [{}, {"transfer.compensator.lead_bounds": [0.0, 0.002]}]
-    a, b = _both(monkeypatch, lambda: run_batch(sc, sets, reference=False))
+                            f"transfer.compensation='{comp}'", f"transfer.compensate='{where}'"])
+    drift, reason = DRIFT[comp]
+    a, b = _both(monkeypatch, lambda: run_batch(sc, [{}, drift], reference=False))
     for ra, rb in zip(a, b, strict=True):
         _same(ra, rb)
     ch = "leg 0" if where == "legs" else "channel 0"
-    assert a[0].status == "ok" and f"rls lead time ({ch}) outside its bounds" in a[1].reason
+    assert a[0].status == "ok" and f"{reason} ({ch}) outside its bounds" in a[1].reason
     col = "comp.theta0." + ("leg0" if where == "legs" else "z")
     assert np.ptp(a[0].record.columns[col]) > 1e-6  # θ adapted: the equality covers it

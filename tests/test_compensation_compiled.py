@@ -8,6 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from rths3d.loop import run_batch
 from rths3d.scene import load_scene
@@ -48,12 +49,16 @@ def test_ats_on_the_lti_path_compiled_equals_python_with_a_drift_stop(monkeypatc
         assert np.ptp(r.record.columns["comp.a1.z"]) > 1e-5
 
 
-def test_rls_on_the_lti_path_compiled_equals_python_with_a_drift_stop(monkeypatch):
+@pytest.mark.parametrize("comp, drift, reason", [
+    ("rls", {"transfer.compensator.lead_bounds": [0.0, 0.002]}, "rls lead time"),
+    ("rodeac", {"transfer.compensator.gain_bounds": [0.95, 0.99]},
+     "rodeac inverse DC gain Σθ")])
+def test_rls_and_rodeac_on_the_lti_path_compiled_equal_python_with_a_drift_stop(
+        monkeypatch, comp, drift, reason):
     sc = load_scene(SCENE, ["duration=0.6", "transfer.kind='lti'", "transfer.delay=0.005",
-                            "transfer.compensation='rls'"])
-    sets = [{}, {"transfer.compensator.lead_bounds": [0.0, 0.002]}]
-    a, b = _both(monkeypatch, lambda: run_batch(sc, sets, reference=False))
+                            f"transfer.compensation='{comp}'"])
+    a, b = _both(monkeypatch, lambda: run_batch(sc, [{}, drift], reference=False))
     for ra, rb in zip(a, b, strict=True):
         _same(ra, rb)
-    assert a[0].status == "ok" and "rls lead time (channel 0)" in a[1].reason
+    assert a[0].status == "ok" and f"{reason} (channel 0) outside its bounds" in a[1].reason
     assert np.ptp(a[0].record.columns["comp.theta0.z"]) > 1e-6

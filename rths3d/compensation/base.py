@@ -339,6 +339,47 @@ def watch_step(hp: np.ndarray, w: np.ndarray, u: float, z: float, wp: np.ndarray
     return w[5] > hold, ru, lim
 
 
+@njit(cache=True, nogil=True, inline="always")
+def sos_row(p, po, nsec, s, so, x):
+    """:func:`sos_step` for the kernels of :data:`COMP_SIG`: ``nsec`` sections stored in the
+    parameter row ``p`` from column ``po`` (6 each), their state in the state row ``s`` from
+    column ``so`` (2 each); the same operations."""
+    y = x
+    for i in range(nsec):
+        q = po + 6 * i
+        b0, b1, b2, a1, a2 = p[q], p[q + 1], p[q + 2], p[q + 4], p[q + 5]
+        z0 = so + 2 * i
+        out = b0 * y + s[z0]
+        s[z0] = b1 * y - a1 * out + s[z0 + 1]
+        s[z0 + 1] = b2 * y - a2 * out
+        y = out
+    return y
+
+
+@njit(cache=True, nogil=True, inline="always")
+def watch_row(p, wpo, hpo, s, w, u, z):
+    """:func:`watch_step` for the kernels of :data:`COMP_SIG`: the watch's parameters in the
+    parameter row ``p`` from column ``wpo`` (5), its high-pass section from ``hpo`` (6), its
+    state in the state row ``s`` from column ``w`` (:data:`WATCH_STATES`); the same
+    operations."""
+    h = hpo
+    alpha, ratio, floor, dt, hold = p[wpo], p[wpo + 1], p[wpo + 2], p[wpo + 3], p[wpo + 4]
+    yu = p[h] * u + s[w]
+    s[w] = p[h + 1] * u - p[h + 4] * yu + s[w + 1]
+    s[w + 1] = p[h + 2] * u - p[h + 5] * yu
+    s[w + 2] += alpha * (z - s[w + 2])
+    dz = z - s[w + 2]
+    s[w + 3] += alpha * (dz * dz - s[w + 3])
+    s[w + 4] += alpha * (yu * yu - s[w + 4])
+    ru = math.sqrt(s[w + 4])
+    lim = ratio * math.sqrt(s[w + 3]) + floor
+    if ru > lim:
+        s[w + 5] += dt
+    else:
+        s[w + 5] = 0.0
+    return s[w + 5] > hold, ru, lim
+
+
 def butter_sos(order: int, cutoff: float, dt: float, kind: str = "lowpass") -> np.ndarray:
     """Digital Butterworth (bilinear, prewarped at ``cutoff`` Hz) as sections (S, 6);
     order 0 gives an identity section."""

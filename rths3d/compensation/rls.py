@@ -28,7 +28,6 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from numba import njit
 
 from .base import (
     WATCH_STATES,
@@ -41,6 +40,8 @@ from .base import (
     comp_kernel,
     comp_ready,
     register,
+    sos_row,
+    watch_row,
 )
 
 INCH = 0.0254
@@ -121,45 +122,6 @@ _S_CODE, _S_VAL, _S_LIM, _S_WATCH = NSTATE, NSTATE + 1, NSTATE + 2, NSTATE + 3
 _S_TH = _S_WATCH + WATCH_STATES
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _sos_row(p, po, nsec, s, so, x):
-    """:func:`~.base.sos_step` on sections stored in row ``p`` from ``po`` and their state
-    in row ``s`` from ``so`` (the same operations)."""
-    y = x
-    for i in range(nsec):
-        q = po + 6 * i
-        b0, b1, b2, a1, a2 = p[q], p[q + 1], p[q + 2], p[q + 4], p[q + 5]
-        z0 = so + 2 * i
-        out = b0 * y + s[z0]
-        s[z0] = b1 * y - a1 * out + s[z0 + 1]
-        s[z0 + 1] = b2 * y - a2 * out
-        y = out
-    return y
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _watch_row(p, s, w, u, z):
-    """:func:`~.base.watch_step` with the high-pass section and the parameters in row ``p``
-    and the state in row ``s`` from ``w`` (the same operations)."""
-    h = _P_HP
-    alpha, ratio, floor, dt, hold = p[_P_WP], p[_P_WP + 1], p[_P_WP + 2], p[_P_WP + 3], \
-        p[_P_WP + 4]
-    yu = p[h] * u + s[w]
-    s[w] = p[h + 1] * u - p[h + 4] * yu + s[w + 1]
-    s[w + 1] = p[h + 2] * u - p[h + 5] * yu
-    s[w + 2] += alpha * (z - s[w + 2])
-    dz = z - s[w + 2]
-    s[w + 3] += alpha * (dz * dz - s[w + 3])
-    s[w + 4] += alpha * (yu * yu - s[w + 4])
-    ru = math.sqrt(s[w + 4])
-    lim = ratio * math.sqrt(s[w + 3]) + floor
-    if ru > lim:
-        s[w + 5] += dt
-    else:
-        s[w + 5] = 0.0
-    return s[w + 5] > hold, ru, lim
-
-
 @comp_kernel
 def rls_kernel(p, s, z, zd, zm, u):
     """One call of the RLS compensator for R = K·n rows (test-major): ``p`` (R, P) the
@@ -201,8 +163,8 @@ def rls_kernel(p, s, z, zd, zm, u):
             zi_u = zr + L
             zi_x = zi_u + 2 * nsec
             ca = j * N  # this channel's θ in use, in the head
-            uf = _sos_row(pr, _P_SOS, nsec, sr, zi_u, sr[st + _U_PREV])
-            xf = _sos_row(pr, _P_SOS, nsec, sr, zi_x, zm[row])
+            uf = sos_row(pr, _P_SOS, nsec, sr, zi_u, sr[st + _U_PREV])
+            xf = sos_row(pr, _P_SOS, nsec, sr, zi_x, zm[row])
             idx = int(sr[st + _IDX])
             sr[xr + idx] = xf
             sr[zr + idx] = z[row]
@@ -267,7 +229,7 @@ def rls_kernel(p, s, z, zd, zm, u):
             sr[st + _IDX] = (idx + 1) % L
             sr[st + _U_PREV] = uk
             u[row] = uk
-            osc, ru, lim = _watch_row(pr, sr, H + _S_WATCH, uk, z[row])
+            osc, ru, lim = watch_row(pr, _P_WP, _P_HP, sr, H + _S_WATCH, uk, z[row])
             if osc and sr[H + _S_CODE] == 0.0:
                 sr[H + _S_CODE] = 3.0
                 sr[H + _S_VAL] = ru
