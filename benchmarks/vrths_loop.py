@@ -25,6 +25,9 @@ Prints ONE JSON line:
                      DOF from the predicted delay), runs alternated side by side; floor 1.15
   ats_legs_over_none_time  the same with ATS on each of the six legs (transfer.compensate =
                      "legs": the platform's leg hook)
+  rls_legs_over_none_time  the same with RLS on each of the six legs; floor 1.2
+  ats_loop, ats_legs_loop, rls_legs_loop  the loop those compensated tests took (record
+                     meta "loop": compiled or python)
 Medians over repeats; ratios measured side by side in one run. ``--quick``: 2 s tests, one
 repeat (figures noisier).
 """
@@ -83,7 +86,7 @@ def main() -> None:
         f"duration={duration}", "transfer.kind='stewart'", "transfer.delay=0.005",
         f"transfer.compensation='{c}'", f"transfer.compensate='{where}'"])
         for name, c, where in (("none", "none", "interface"), ("ats", "ats", "interface"),
-                               ("ats_legs", "ats", "legs"))}
+                               ("ats_legs", "ats", "legs"), ("rls_legs", "rls", "legs"))}
     for sc_c in comp.values():  # the compensator's kernels load on its first run
         run(scene_with(sc_c, {"duration": 0.1}), reference=False)
 
@@ -116,11 +119,13 @@ def main() -> None:
         rtf_lti.append(run(sc, "lti", reference=False).rtf)
     # the compensator's cost on the Stewart path: the same test with and without, alternated
     walls: dict[str, list[float]] = {k: [] for k in comp}
+    loops: dict[str, str] = {}
     for _ in range(max(reps, 3)):
         for name, sc_c in comp.items():
             r = run(sc_c, reference=False)
             assert r.status == "ok", r.reason
             walls[name].append(r.wall)
+            loops[name] = r.record.meta["loop"]
     t0 = time.perf_counter()
     reference_solution([sc])
     rtf_ref = sc.duration / (time.perf_counter() - t0)
@@ -177,6 +182,9 @@ def main() -> None:
         "ats_over_none_time": round(med(walls["ats"]) / med(walls["none"]), 3),
         "ats_legs_over_none_time": round(med(walls["ats_legs"]) / med(walls["none"]), 3),
         "ats_path": "stewart",
+        "ats_loop": loops["ats"], "ats_legs_loop": loops["ats_legs"],
+        "rls_legs_over_none_time": round(med(walls["rls_legs"]) / med(walls["none"]), 3),
+        "rls_legs_loop": loops["rls_legs"],
         "k_stewart": args.k_stewart, "k_lti": args.k_lti, "duration_s": duration,
         "quick": args.quick,
     }))

@@ -285,9 +285,40 @@ class _Group:
               tr.f_meas, tr.u)
         mon = self._monitor_arrays()
         rec = (self.data, self.c_zc, self.c_zm, self.c_f, self.c_x)
-        return int(run_steps(n0, n1, num_c, stages, io, mon, rec,
-                             noise_buffer(tr_c.act_noise, n1 - n0, R),
-                             noise_buffer(tr_c.sens_noise, n1 - n0, R)))
+        hist = self.__dict__.get("_hist2d")
+        if hist is None:  # the signal's source and history as (K, w), (N+1, K, w) views
+            if len(self.signals) > 1:  # a programming error: a 1-D chain records one
+                raise ValueError(f"{len(self.signals)} record signals in the 1-D range loop")
+            hist = self._hist2d = next(
+                ((sig.source.reshape(self.K, -1), h.reshape(h.shape[0], self.K, -1))
+                 for sig, h in zip(self.signals, self.hist, strict=True)),
+                (np.zeros((self.K, 0)), np.zeros((1, self.K, 0))))
+        done, code = run_steps(n0, n1, num_c, stages, io, mon, rec,
+                               noise_buffer(tr_c.act_noise, n1 - n0, R),
+                               noise_buffer(tr_c.sens_noise, n1 - n0, R), hist)
+        done = int(done)
+        if code:  # the compensator's safety event in step n0 + done: finish that step
+            self._finish_event(n0 + done, mon, rec)
+            done += 1
+        return done
+
+    def _finish_event(self, n: int, mon_c: tuple, rec: tuple) -> None:
+        """Step n after the compiled transfer step whose compensator raised a safety event,
+        as :meth:`_python` finishes a step: the stops (ChainTransfer.step's), the signals'
+        row, the record row and the force checks."""
+        num, tr, mon = self.num, self.transfer, self.monitor
+        comp = tr.compensator
+        comp.events(n)
+        if comp.any_stopped:
+            tr.stopped[:] = comp.stopped
+            tr.reasons = list(comp.reasons)
+        for k in np.flatnonzero(tr.stopped & mon.active):
+            mon.stop(int(k), tr.reasons[k], n)
+            num.halt(int(k))
+        for sig, h in zip(self.signals, self.hist, strict=True):
+            h[n + 1] = sig.source
+        if post_step(rec, n, num.z, tr.z_meas, tr.f_meas, num.x, mon_c):
+            self._halt(n)
 
     def _python(self, n0: int, n1: int) -> int:
         num, tr, mon = self.num, self.transfer, self.monitor

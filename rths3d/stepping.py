@@ -33,8 +33,8 @@ _run_chain = inline_njit(run_chain.py_func)
 _check_command = inline_njit(check_command.py_func)
 _check_measured = inline_njit(check_measured.py_func)
 
-__all__ = ["fill_known", "linear_step", "noise_buffer", "post_step", "pre_step", "record_row",
-           "run_steps", "transfer_step"]
+__all__ = ["copy_signals", "fill_known", "linear_step", "noise_buffer", "post_step", "pre_step",
+           "record_row", "run_steps", "transfer_step"]
 
 
 @inline_njit
@@ -55,13 +55,24 @@ def transfer_step(comp_f, comp_p, comp_s, act_fs, act_ps, act_ss, part_f, part_p
     """One step of a compiled transfer system over R rows (1-D views of (K, n_if) arrays):
     u = compensate(z, ż, z'_prev), z' = actuators(u), F = part(z'_prev → z'), F' = sensor(F).
     The compensator and the part kernel come as 1-tuples (a tuple of kernels of one
-    signature is typed as first-class functions, which numba can cache)."""
-    comp_f[0](comp_p, comp_s, z, zd, zm, u)
+    signature is typed as first-class functions, which numba can cache). Returns whether
+    the compensator raised a new safety event."""
+    event = comp_f[0](comp_p, comp_s, z, zd, zm, u)
     _run_chain(act_fs, act_ps, act_ss, u, zm, w_act)
     part_f[0](part_p, part_s, zprev, zm, ftrue)
     _run_chain(sens_fs, sens_ps, sens_ss, ftrue, fmeas, w_sens)
     for r in range(zm.shape[0]):
         zprev[r] = zm[r]
+    return event
+
+
+@inline_njit
+def copy_signals(src, h, row):
+    """Row ``row`` of a record signal's history ``h`` (N+1, K, w) from its source (K, w)
+    (w = 0: no signal)."""
+    for k in range(src.shape[0]):
+        for j in range(src.shape[1]):
+            h[row, k, j] = src[k, j]
 
 
 @njit
@@ -88,16 +99,21 @@ def post_step(rec, n, z, zm, f, x, mon):
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False)
-def run_steps(n0, n1, num, tr, io, mon, rec, noise_act, noise_sens):
-    """Steps n0 … n1−1 of K tests (see the module docstring). Returns the number of steps
-    done (< n1 − n0 when every test has stopped).
+def run_steps(n0, n1, num, tr, io, mon, rec, noise_act, noise_sens, hist):
+    """Steps n0 … n1−1 of K tests (see the module docstring). Returns (steps done, code):
+    done < n1 − n0 when every test has stopped; code 1: the compensator raised a safety
+    event in step n0 + done, which is done up to the transfer system's outputs — the
+    driver finishes it (the stop, the signals' row, the record row and the force checks)
+    and counts it.
 
     ``num``: (A_d, B_f, P, s, s_next, C_zx, C_zv, C_x) of the linear substructure;
     ``tr``: the transfer stages (comp kernel, params, state, act kernels, params, states,
     part kernel, params, state, sensor kernels, params, states); ``io``: the loop's (K, ·)
     buffers (z, ż, x, z', z'_prev, F, F', u); ``mon``: the monitor's limits and state;
     ``rec``: (record array (N+1, K, C), column of z_cmd, z_meas, f_meas, x_num);
-    ``noise_*``: the chains' standard-normal draws for these steps ((n1 − n0, R)).
+    ``noise_*``: the chains' standard-normal draws for these steps ((n1 − n0, R));
+    ``hist``: the record signal to copy after each step, (source (K, w), history (N+1, K,
+    w)) (:func:`copy_signals`; w = 0 for none).
     """
     Ad, Bf, P, s, s_next, Czx, Czv, Cx = num
     z, zd, x, zm, zprev, ftrue, fmeas, u = io
@@ -116,11 +132,13 @@ def run_steps(n0, n1, num, tr, io, mon, rec, noise_act, noise_sens):
                     P[:, k, :] = 0.0
                     s[k, :] = 0.0
             if not active.any():
-                return n - n0
+                return n - n0, 0
         wa = noise_act[(n - n0) % noise_act.shape[0]]
         ws = noise_sens[(n - n0) % noise_sens.shape[0]]
-        transfer_step(tr[0], tr[1], tr[2], tr[3], tr[4], tr[5], tr[6], tr[7], tr[8], tr[9],
-                      tr[10], tr[11], zr, zdr, zmr, zpr, ftr, fmr, ur, wa, ws)
+        if transfer_step(tr[0], tr[1], tr[2], tr[3], tr[4], tr[5], tr[6], tr[7], tr[8],
+                         tr[9], tr[10], tr[11], zr, zdr, zmr, zpr, ftr, fmr, ur, wa, ws):
+            return n - n0, 1
+        copy_signals(hist[0], hist[1], n + 1)
         record_row(data, n + 1, z, zm, fmeas, x, c_zc, c_zm, c_f, c_x)
         if _check_measured(fmeas, lim_f, g_win, g_fac, g_n, g_floor, g_pk, g_prev, g_base, g_cnt,
                           active, code, dof, value, row, n):
@@ -129,8 +147,8 @@ def run_steps(n0, n1, num, tr, io, mon, rec, noise_act, noise_sens):
                     P[:, k, :] = 0.0
                     s[k, :] = 0.0
             if not active.any():
-                return n + 1 - n0
-    return n1 - n0
+                return n + 1 - n0, 0
+    return n1 - n0, 0
 
 
 @njit

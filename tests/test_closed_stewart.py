@@ -80,8 +80,111 @@ def test_command_limit_stop_inside_a_range(monkeypatch):
     assert 1 < len(a.record.t) < 401
 
 
-@pytest.mark.parametrize("comp", ["ats"])
-def test_adaptive_compensator_falls_back_to_python(comp):
-    sc = load_scene(SCENE, ["duration=0.02", "transfer.kind='stewart'",
-                            f"transfer.compensation='{comp}'"])
-    assert run(sc, reference=False).record.meta["loop"] == "python"
+def test_ats_compiled_equals_python_with_adaptation_and_a_drift_stop(monkeypatch):
+    """ATS per interface DOF steps inside the compiled closed loop: its adaptation (window
+    0.25 s, so the coefficients move within the test) and its drift stop (a1 bounded below
+    the delay: the estimate stays outside for longer than bound_time) give the Python
+    driver's record, the stop's row and its reason."""
+    sc = load_scene(SCENE, ["duration=0.8", "transfer.kind='stewart'", "transfer.delay=0.005",
+                            "transfer.compensation='ats'", "transfer.compensator.window=0.25"])
+    sets = [{}, {"transfer.delay": 0.02}, {"transfer.compensator.a1_bounds": [0.0, 0.002]}]
+    a, b = _both(monkeypatch, lambda: run_batch(sc, sets, reference=False))
+    for ra, rb in zip(a, b, strict=True):
+        _same(ra, rb)
+    assert [r.status for r in a] == ["ok", "ok", "stopped"]
+    assert "ats a1 estimate (channel 0) outside its bounds" in a[2].reason
+    assert 300 < len(a[2].record.t) < 801
+    # the coefficients adapted during the test (s): the equality covers the adaptation
+    for r in a[:2]:
+        assert np.ptp(r.record.columns["comp.a1.z"]) > 5e-4
+
+
+def test_per_leg_ats_compiled_equals_python_with_a_drift_stop_naming_the_leg(monkeypatch):
+    """ATS on the six legs (the platform's leg hook) steps inside the compiled closed loop:
+    the leg channels, the leg compensator's kernel and the commanded lengths give the Python
+    driver's record, and a drifting leg compensator stops its test at the same row with
+    the leg named."""
+    sc = load_scene(SCENE, ["duration=0.8", "transfer.kind='stewart'", "transfer.delay=0.005",
+                            "transfer.compensation='ats'", "transfer.compensate='legs'",
+                            "transfer.compensator.window=0.25"])
+    sets = [{}, {"transfer.delay": 0.02}, {"transfer.compensator.a1_bounds": [0.0, 0.002]}]
+    a, b = _both(monkeypatch, lambda: run_batch(sc, sets, reference=False))
+    for ra, rb in zip(a, b, strict=True):
+        _same(ra, rb)
+    assert [r.status for r in a] == ["ok", "ok", "stopped"]
+    assert "ats a1 estimate (leg 0) outside its bounds" in a[2].reason
+    assert 300 < len(a[2].record.t) < 801
+    for r in a[:2]:  # the legs' coefficients adapted (s)
+        assert np.ptp(r.record.columns["comp.a1.leg0"]) > 5e-4
+
+
+@pytest.mark.slow  # the Python path of a six-DOF Stewart test
+def test_ats_six_dof_compiled_equals_python(monkeypatch):
+    sc = load_scene(SCENE.parent / "bench6.toml", [
+        "duration=1.0", "transfer.kind='stewart'", "transfer.compensation='ats'",
+        "transfer.compensator.window=0.2"])
+    a, b = _both(monkeypatch, lambda: run(sc, reference=False))
+    _same(a, b)
+    coefs = [c for c in a.record.columns if c.startswith("comp.a1.")]
+    assert len(coefs) == 6
+    # the equality covers the adaptation: coefficients of several DOFs moved (s)
+    assert sum(np.ptp(a.record.columns[c]) > 1e-4 for c in coefs) >= 2
+
+
+def test_plugin_compensator_without_kernel_runs_on_the_python_path(monkeypatch):
+    """A user's compensator in plain Python (velocity feed-forward u = z + τ ż written with
+    numpy, no kernel) runs on the Python driver and says so; its record is that of the
+    shipped ``velocity`` compensator (its kernel, compiled loop) to 1e-12."""
+    from dataclasses import dataclass
+
+    from rths3d.compensation import COMPENSATORS, BaseCompensator, CompensatorConfig
+
+    @dataclass(frozen=True)
+    class PlugConfig(CompensatorConfig):
+        tau: float = 0.0
+
+    class Plug(BaseCompensator):
+        name = "plug_velocity"
+        Config = PlugConfig
+
+        def command(self, z, zdot, z_meas):
+            self.u[:] = z + self.config.tau * zdot
+            self.calls += 1
+            return self.u
+
+    monkeypatch.setitem(COMPENSATORS, "plug_velocity", Plug)
+    over = ["duration=0.3", "transfer.kind='stewart'", "transfer.delay=0.005"]
+    plug = run(load_scene(SCENE, over + ["transfer.compensation='plug_velocity'",
+                                         "transfer.compensator.tau=0.004"]), reference=False)
+    vel = run(load_scene(SCENE, over + ["transfer.compensation='velocity'",
+                                        "transfer.comp_time=0.004"]), reference=False)
+    assert plug.record.meta["loop"] == "python" and vel.record.meta["loop"] == "compiled"
+    for c in ("z_cmd.z", "z_meas.z", "f_meas.z"):
+        x, y = np.asarray(plug.record.columns[c]), np.asarray(vel.record.columns[c])
+        assert np.max(np.abs(x - y)) <= 1e-12 * np.max(np.abs(y)), c
+    assert np.ptp(vel.record.columns["z_meas.z"]) > 1e-4
+
+
+DRIFT = {  # a setting whose bound the estimate leaves, and the start of its stop reason
+    "rls": ({"transfer.compensator.lead_bounds": [0.0, 0.002]}, "rls lead time"),
+    "rodeac": ({"transfer.compensator.gain_bounds": [0.95, 0.99]},
+               "rodeac inverse DC gain Σθ"),
+}
+
+
+@pytest.mark.parametrize("comp", ["rls", "rodeac"])
+@pytest.mark.parametrize("where", ["interface", "legs"])
+def test_rls_and_rodeac_compiled_equal_python_with_a_drift_stop(monkeypatch, comp, where):
+    """RLS and RoDeAC per interface DOF and per leg in the compiled closed loop: the Python
+    driver's record, and an estimate held outside its bounds stops the test at the same
+    row with the channel named."""
+    sc = load_scene(SCENE, ["duration=0.6", "transfer.kind='stewart'", "transfer.delay=0.005",
+                            f"transfer.compensation='{comp}'", f"transfer.compensate='{where}'"])
+    drift, reason = DRIFT[comp]
+    a, b = _both(monkeypatch, lambda: run_batch(sc, [{}, drift], reference=False))
+    for ra, rb in zip(a, b, strict=True):
+        _same(ra, rb)
+    ch = "leg 0" if where == "legs" else "channel 0"
+    assert a[0].status == "ok" and f"{reason} ({ch}) outside its bounds" in a[1].reason
+    col = "comp.theta0." + ("leg0" if where == "legs" else "z")
+    assert np.ptp(a[0].record.columns[col]) > 1e-6  # θ adapted: the equality covers it

@@ -45,9 +45,11 @@ from .base import (
     channel_values,
     check,
     check_bounds,
+    comp_kernel,
+    comp_ready,
     register,
-    sos_step,
-    watch_step,
+    sos_row,
+    watch_row,
 )
 
 INCH = 0.0254
@@ -144,63 +146,92 @@ def _solve3(M, r):
     return True
 
 
-@njit(cache=True, nogil=True)
-def _ats_step(z, zd, zm, u, a, est, st, blocks, zi_u, zi_x, sos, watch, hp, wp, stopped,
-              code, ev_val, ev_lim, prm, lo, hi, step_max, prior):
-    """One call for all (K, n) channels. ``prm`` = [dt, M (samples per block), B (blocks),
-    threshold, ridge, bound_time, interval (s)]; ``wp``: the watch's parameters; ``prior``
-    (K, n, 3): the initial coefficients the ridge pulls toward. Returns
-    True when a new safety event was raised."""
-    dt = prm[0]
-    M = int(prm[1])
-    B = int(prm[2])
-    thr, ridge, bound_time, interval = prm[3], prm[4], prm[5], prm[6]
-    K, n = z.shape
-    inv2 = 0.5 / dt
-    inv_sq = 1.0 / (dt * dt)
+# the per-row parameters (``p`` of the kernel, (R, P)): scalars, then the bounds, the
+# rate limits, the prior, the watch's parameters, its high-pass section, the low-pass sections
+_P_N, _P_DT, _P_M, _P_B, _P_THR, _P_RIDGE, _P_BT, _P_INT, _P_NSEC = range(9)
+_P_LO, _P_HI, _P_STEP, _P_PRIOR, _P_WP, _P_HP, _P_SOS = 9, 12, 15, 18, 21, 26, 32
+# the per-row state (``s`` of the kernel, (R, S)) after the head (3n + 1 columns, used in
+# the first row of each test: its coefficients (a0, a1, a2) per channel, then its stop flag,
+# so that the coefficients of a test are contiguous and the history a view): the scalars
+# (NSTATE), the estimates (3), the event (code, value, limit), the watch, the filter states,
+# the window's blocks
+_S_EST, _S_CODE, _S_VAL, _S_LIM, _S_WATCH = NSTATE, NSTATE + 3, NSTATE + 4, NSTATE + 5, \
+    NSTATE + 6
+_S_ZI = _S_WATCH + WATCH_STATES
+
+
+@comp_kernel
+def ats_kernel(p, s, z, zd, zm, u):
+    """One call of the ATS compensator for R = K·n rows (test-major): ``p`` (R, P) the
+    parameters, ``s`` (R, S) the state (layout: the ``_P_*``, ``_S_*`` offsets; the head of
+    each test's first row holds its coefficients and stop flag). The whole compensator —
+    the identification, the bounded and rate-limited update, the drift and oscillation
+    watch, the command — for the Python object's :meth:`ATSCompensator.command` and the
+    compiled loops alike. Returns True when a new safety event was raised (its code, value
+    and limit in the channel's state)."""
+    n = int(p[0, _P_N])
+    H = 3 * n + 1
+    K = z.shape[0] // n
     event = False
     A = np.empty((3, 3))
     r = np.empty(3)
     S = np.empty(NSUM)
     for k in range(K):
-        if stopped[k]:
+        h0 = k * n
+        head = s[h0]
+        if head[3 * n] != 0.0:
             continue
         for j in range(n):
-            s = st[k, j]
+            row = h0 + j
+            pr = p[row]
+            sr = s[row]
+            dt = pr[_P_DT]
+            M = int(pr[_P_M])
+            B = int(pr[_P_B])
+            thr, ridge, bound_time, interval = pr[_P_THR], pr[_P_RIDGE], pr[_P_BT], pr[_P_INT]
+            nsec = int(pr[_P_NSEC])
+            inv2 = 0.5 / dt
+            inv_sq = 1.0 / (dt * dt)
+            zi_u = H + _S_ZI
+            zi_x = zi_u + 2 * nsec
+            blk0 = zi_x + 2 * nsec
+            st = H  # the scalars
+            ca = 3 * j  # this channel's coefficients in the head
             # -- identification: the previous command against this measurement ------------
-            uf = sos_step(sos, zi_u[k, j], s[_U_PREV])
-            xf = sos_step(sos, zi_x[k, j], zm[k, j])
-            if s[_NPAIR] >= 2.0:
-                b = int(s[_BLOCK])
-                blk = blocks[k, j, b]
-                x0 = s[_XF1]
-                v0 = (xf - s[_XF2]) * inv2
-                a0 = (xf - 2.0 * s[_XF1] + s[_XF2]) * inv_sq
-                y = s[_UF1]
-                blk[0] += x0 * x0
-                blk[1] += x0 * v0
-                blk[2] += x0 * a0
-                blk[3] += v0 * v0
-                blk[4] += v0 * a0
-                blk[5] += a0 * a0
-                blk[6] += x0 * y
-                blk[7] += v0 * y
-                blk[8] += a0 * y
-                am = abs(zm[k, j])
-                if am > blk[9]:
-                    blk[9] = am
-                s[_COUNT] += 1.0
-                if s[_COUNT] >= M:
-                    if s[_FILLED] < B:
-                        s[_FILLED] += 1.0
-                    if s[_FILLED] >= B:
+            uf = sos_row(pr, _P_SOS, nsec, sr, zi_u, sr[st + _U_PREV])
+            xf = sos_row(pr, _P_SOS, nsec, sr, zi_x, zm[row])
+            if sr[st + _NPAIR] >= 2.0:
+                b = int(sr[st + _BLOCK])
+                q0 = blk0 + b * NSUM
+                x0 = sr[st + _XF1]
+                v0 = (xf - sr[st + _XF2]) * inv2
+                a0 = (xf - 2.0 * sr[st + _XF1] + sr[st + _XF2]) * inv_sq
+                y = sr[st + _UF1]
+                sr[q0] += x0 * x0
+                sr[q0 + 1] += x0 * v0
+                sr[q0 + 2] += x0 * a0
+                sr[q0 + 3] += v0 * v0
+                sr[q0 + 4] += v0 * a0
+                sr[q0 + 5] += a0 * a0
+                sr[q0 + 6] += x0 * y
+                sr[q0 + 7] += v0 * y
+                sr[q0 + 8] += a0 * y
+                am = abs(zm[row])
+                if am > sr[q0 + 9]:
+                    sr[q0 + 9] = am
+                sr[st + _COUNT] += 1.0
+                if sr[st + _COUNT] >= M:
+                    if sr[st + _FILLED] < B:
+                        sr[st + _FILLED] += 1.0
+                    if sr[st + _FILLED] >= B:
                         for q in range(NSUM):
                             S[q] = 0.0
                         for bb in range(B):
+                            qb = blk0 + bb * NSUM
                             for q in range(9):
-                                S[q] += blocks[k, j, bb, q]
-                            if blocks[k, j, bb, 9] > S[9]:
-                                S[9] = blocks[k, j, bb, 9]
+                                S[q] += sr[qb + q]
+                            if sr[qb + 9] > S[9]:
+                                S[9] = sr[qb + 9]
                         if S[9] >= thr and S[0] > 0.0 and S[3] > 0.0 and S[5] > 0.0:
                             d0 = math.sqrt(S[0])
                             d1 = math.sqrt(S[3])
@@ -211,55 +242,60 @@ def _ats_step(z, zd, zm, u, a, est, st, blocks, zi_u, zi_x, sos, watch, hp, wp, 
                             A[0, 1] = A[1, 0] = S[1] / (d0 * d1)
                             A[0, 2] = A[2, 0] = S[2] / (d0 * d2)
                             A[1, 2] = A[2, 1] = S[4] / (d1 * d2)
-                            r[0] = S[6] / d0 + ridge * d0 * prior[k, j, 0]
-                            r[1] = S[7] / d1 + ridge * d1 * prior[k, j, 1]
-                            r[2] = S[8] / d2 + ridge * d2 * prior[k, j, 2]
+                            r[0] = S[6] / d0 + ridge * d0 * pr[_P_PRIOR]
+                            r[1] = S[7] / d1 + ridge * d1 * pr[_P_PRIOR + 1]
+                            r[2] = S[8] / d2 + ridge * d2 * pr[_P_PRIOR + 2]
                             if _solve3(A, r):
-                                est[k, j, 0] = r[0] / d0
-                                est[k, j, 1] = r[1] / d1
-                                est[k, j, 2] = r[2] / d2
+                                sr[H + _S_EST] = r[0] / d0
+                                sr[H + _S_EST + 1] = r[1] / d1
+                                sr[H + _S_EST + 2] = r[2] / d2
                                 for i in range(3):
-                                    e = est[k, j, i]
+                                    e = sr[H + _S_EST + i]
+                                    lo, hi = pr[_P_LO + i], pr[_P_HI + i]
                                     target = e
-                                    if e < lo[i] or e > hi[i]:
-                                        target = lo[i] if e < lo[i] else hi[i]
-                                        s[_T0 + i] += interval
-                                        if s[_T0 + i] > bound_time and code[k, j] == 0:
-                                            code[k, j] = 1 + i
-                                            ev_val[k, j] = e
-                                            ev_lim[k, j] = target
+                                    if e < lo or e > hi:
+                                        target = lo if e < lo else hi
+                                        sr[st + _T0 + i] += interval
+                                        if sr[st + _T0 + i] > bound_time and \
+                                                sr[H + _S_CODE] == 0.0:
+                                            sr[H + _S_CODE] = 1.0 + i
+                                            sr[H + _S_VAL] = e
+                                            sr[H + _S_LIM] = target
                                             event = True
                                     else:
-                                        s[_T0 + i] = 0.0
-                                    dlt = target - a[k, j, i]
-                                    if dlt > step_max[i]:
-                                        dlt = step_max[i]
-                                    elif dlt < -step_max[i]:
-                                        dlt = -step_max[i]
-                                    a[k, j, i] += dlt
+                                        sr[st + _T0 + i] = 0.0
+                                    dlt = target - head[ca + i]
+                                    smax = pr[_P_STEP + i]
+                                    if dlt > smax:
+                                        dlt = smax
+                                    elif dlt < -smax:
+                                        dlt = -smax
+                                    head[ca + i] += dlt
                     b = (b + 1) % B
+                    q0 = blk0 + b * NSUM
                     for q in range(NSUM):
-                        blocks[k, j, b, q] = 0.0
-                    s[_BLOCK] = b
-                    s[_COUNT] = 0.0
-            s[_XF2] = s[_XF1]
-            s[_XF1] = xf
-            s[_UF1] = uf
-            s[_NPAIR] += 1.0
+                        sr[q0 + q] = 0.0
+                    sr[st + _BLOCK] = b
+                    sr[st + _COUNT] = 0.0
+            sr[st + _XF2] = sr[st + _XF1]
+            sr[st + _XF1] = xf
+            sr[st + _UF1] = uf
+            sr[st + _NPAIR] += 1.0
             # -- command -------------------------------------------------------------------
-            zdd = (zd[k, j] - s[_ZD_PREV]) / dt if s[_NPAIR] > 1.0 else 0.0
-            uk = a[k, j, 0] * z[k, j] + a[k, j, 1] * zd[k, j] + a[k, j, 2] * zdd
-            s[_ZD_PREV] = zd[k, j]
-            s[_U_PREV] = uk
-            u[k, j] = uk
-            osc, ru, lim = watch_step(hp, watch[k, j], uk, z[k, j], wp)
-            if osc and code[k, j] == 0:
-                code[k, j] = 4
-                ev_val[k, j] = ru
-                ev_lim[k, j] = lim
+            zdd = (zd[row] - sr[st + _ZD_PREV]) / dt if sr[st + _NPAIR] > 1.0 else 0.0
+            uk = head[ca] * z[row] + head[ca + 1] * zd[row] + head[ca + 2] * zdd
+            sr[st + _ZD_PREV] = zd[row]
+            sr[st + _U_PREV] = uk
+            u[row] = uk
+            osc, ru, lim = watch_row(pr, _P_WP, _P_HP, sr, H + _S_WATCH, uk, z[row])
+            if osc and sr[H + _S_CODE] == 0.0:
+                sr[H + _S_CODE] = 4.0
+                sr[H + _S_VAL] = ru
+                sr[H + _S_LIM] = lim
                 event = True
-        if code[k].any():
-            stopped[k] = True
+        for j in range(n):
+            if s[h0 + j, H + _S_CODE] != 0.0:
+                head[3 * n] = 1.0
     return event
 
 
@@ -276,6 +312,7 @@ class ATSCompensator(BaseCompensator):
 
     name = "ats"
     rank = 40
+    adaptive = True
     Config = ATSConfig
 
     def __init__(self, config: ATSConfig, K: int, n: int, dt: float):
@@ -284,8 +321,8 @@ class ATSCompensator(BaseCompensator):
         check("ats.filter_hz", c.filter_hz, c.filter_order == 0 or c.filter_hz < 0.5 / dt,
               f"must be below the Nyquist frequency {0.5 / dt:g} Hz")
         c.check_watch("ats", dt)
-        self.a_init = np.stack([channel_values(f"ats.{k}", getattr(c, k), K, n)
-                                for k in ("a0", "a1", "a2")], axis=-1)
+        a_init = np.stack([channel_values(f"ats.{k}", getattr(c, k), K, n)
+                           for k in ("a0", "a1", "a2")], axis=-1)
         self.M = max(1, int(round(c.interval / dt)))
         self.B = max(1, int(round(c.window / (self.M * dt))))
         self.lo = np.array([c.a0_bounds[0], c.a1_bounds[0], c.a2_bounds[0]])
@@ -295,18 +332,31 @@ class ATSCompensator(BaseCompensator):
         self.sos = butter_sos(c.filter_order, c.filter_hz, dt)
         self.hp = butter_sos(2, c.osc_corner, dt, "highpass")
         self.wp = c.watch_params(dt)
-        self.prm = np.array([dt, self.M, self.B, c.threshold, c.ridge, c.bound_time, interval])
-        S = self.sos.shape[0]
-        self.a = np.zeros((K, n, 3))
-        self.est = np.zeros((K, n, 3))
-        self.st = np.zeros((K, n, NSTATE))
-        self.blocks = np.zeros((K, n, self.B, NSUM))
-        self.zi_u = np.zeros((K, n, S, 2))
-        self.zi_x = np.zeros((K, n, S, 2))
-        self.watch = np.zeros((K, n, WATCH_STATES))
-        self.code = np.zeros((K, n), dtype=np.int64)
-        self.ev_val = np.zeros((K, n))
-        self.ev_lim = np.zeros((K, n))
+        nsec = self.sos.shape[0]
+        R = K * n
+        # the kernel's arrays (rows test-major, row = k·n + j): its parameters ...
+        p = np.zeros((R, _P_SOS + 6 * nsec))
+        p[:, :_P_LO] = [n, dt, self.M, self.B, c.threshold, c.ridge, c.bound_time, interval,
+                        nsec]
+        p[:, _P_LO:_P_HI] = self.lo
+        p[:, _P_HI:_P_STEP] = self.hi
+        p[:, _P_STEP:_P_PRIOR] = self.step_max
+        p[:, _P_PRIOR:_P_WP] = a_init.reshape(R, 3)
+        p[:, _P_WP:_P_HP] = self.wp
+        p[:, _P_HP:_P_SOS] = self.hp[0]
+        p[:, _P_SOS:] = self.sos.reshape(-1)
+        self.params = p
+        # ... and its state; the Python object reads views of them
+        H = 3 * n + 1
+        self.state = s = np.zeros((R, H + _S_ZI + 4 * nsec + self.B * NSUM))
+        self.a_init = p[:, _P_PRIOR:_P_WP].reshape(K, n, 3)
+        """The initial coefficients (K, n, 3), which the ridge pulls toward (a view)."""
+        self.a = s.reshape(K, n * s.shape[1])[:, :3 * n].reshape(K, n, 3)
+        """The coefficients (K, n, 3) in use (a view of the kernel's state)."""
+        self.est = s[:, H + _S_EST:H + _S_EST + 3].reshape(K, n, 3)
+        self.code = s[:, H + _S_CODE].reshape(K, n)
+        self.ev_val = s[:, H + _S_VAL].reshape(K, n)
+        self.ev_lim = s[:, H + _S_LIM].reshape(K, n)
         self.reset()
 
     @property
@@ -316,21 +366,26 @@ class ATSCompensator(BaseCompensator):
 
     def reset(self) -> None:
         super().reset()
+        self.state[:] = 0.0
         self.a[:] = self.a_init
         self.est[:] = self.a_init
-        for arr in (self.st, self.blocks, self.zi_u, self.zi_x, self.watch, self.ev_val,
-                    self.ev_lim):
-            arr[:] = 0.0
-        self.code[:] = 0
 
     def command(self, z: np.ndarray, zdot: np.ndarray, z_meas: np.ndarray) -> np.ndarray:
-        if _ats_step(z, zdot, z_meas, self.u, self.a, self.est, self.st, self.blocks,
-                     self.zi_u, self.zi_x, self.sos, self.watch, self.hp, self.wp, self.stopped,
-                     self.code, self.ev_val, self.ev_lim, self.prm, self.lo, self.hi,
-                     self.step_max, self.a_init):
-            self._events(self.code, self.ev_val, self.ev_lim, LABELS, UNITS)
+        if ats_kernel(self.params, self.state, np.ascontiguousarray(z).reshape(-1),
+                      np.ascontiguousarray(zdot).reshape(-1),
+                      np.ascontiguousarray(z_meas).reshape(-1), self.u.reshape(-1)):
+            self.events()
         self.calls += 1
         return self.u
+
+    def events(self, call: int | None = None, tests: slice = slice(None)) -> None:
+        """The kernel's new safety events of ``tests`` as stops (at call ``call``, default
+        this one): the compiled loop calls this after the step whose kernel call returned
+        True."""
+        self._events(self.code, self.ev_val, self.ev_lim, LABELS, UNITS, call, tests)
+
+    def compiled(self):
+        return (comp_ready(ats_kernel),), self.params, self.state
 
     def coefficients(self) -> dict[str, np.ndarray]:
         return {"a0": self.a[:, :, 0], "a1": self.a[:, :, 1], "a2": self.a[:, :, 2]}

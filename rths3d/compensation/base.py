@@ -73,9 +73,12 @@ class Compensator(Protocol):
     def coefficients(self) -> dict[str, np.ndarray]: ...
 
 
-COMP_SIG = numba.types.void(F2, F2, F1, F1, F1, F1)
+COMP_SIG = numba.types.boolean(F2, F2, F1, F1, F1, F1)
 """Signature of a compensator's per-step kernel for the compiled loop: (params (R, P),
-state (R, S), z (R,), ż (R,), z_meas (R,), u (R,)) over R = K·n rows."""
+state (R, S), z (R,), ż (R,), z_meas (R,), u (R,)) over R = K·n rows (test-major: row
+k·n + j), returning True when it raised a new safety event (a drifting adaptive
+compensator: the loop hands the step back to Python, which turns it into the stop through
+the compensator's ``events(call)``)."""
 
 
 def comp_kernel(fn: Any) -> Any:
@@ -336,6 +339,47 @@ def watch_step(hp: np.ndarray, w: np.ndarray, u: float, z: float, wp: np.ndarray
     return w[5] > hold, ru, lim
 
 
+@njit(cache=True, nogil=True, inline="always")
+def sos_row(p, po, nsec, s, so, x):
+    """:func:`sos_step` for the kernels of :data:`COMP_SIG`: ``nsec`` sections stored in the
+    parameter row ``p`` from column ``po`` (6 each), their state in the state row ``s`` from
+    column ``so`` (2 each); the same operations."""
+    y = x
+    for i in range(nsec):
+        q = po + 6 * i
+        b0, b1, b2, a1, a2 = p[q], p[q + 1], p[q + 2], p[q + 4], p[q + 5]
+        z0 = so + 2 * i
+        out = b0 * y + s[z0]
+        s[z0] = b1 * y - a1 * out + s[z0 + 1]
+        s[z0 + 1] = b2 * y - a2 * out
+        y = out
+    return y
+
+
+@njit(cache=True, nogil=True, inline="always")
+def watch_row(p, wpo, hpo, s, w, u, z):
+    """:func:`watch_step` for the kernels of :data:`COMP_SIG`: the watch's parameters in the
+    parameter row ``p`` from column ``wpo`` (5), its high-pass section from ``hpo`` (6), its
+    state in the state row ``s`` from column ``w`` (:data:`WATCH_STATES`); the same
+    operations."""
+    h = hpo
+    alpha, ratio, floor, dt, hold = p[wpo], p[wpo + 1], p[wpo + 2], p[wpo + 3], p[wpo + 4]
+    yu = p[h] * u + s[w]
+    s[w] = p[h + 1] * u - p[h + 4] * yu + s[w + 1]
+    s[w + 1] = p[h + 2] * u - p[h + 5] * yu
+    s[w + 2] += alpha * (z - s[w + 2])
+    dz = z - s[w + 2]
+    s[w + 3] += alpha * (dz * dz - s[w + 3])
+    s[w + 4] += alpha * (yu * yu - s[w + 4])
+    ru = math.sqrt(s[w + 4])
+    lim = ratio * math.sqrt(s[w + 3]) + floor
+    if ru > lim:
+        s[w + 5] += dt
+    else:
+        s[w + 5] = 0.0
+    return s[w + 5] > hold, ru, lim
+
+
 def butter_sos(order: int, cutoff: float, dt: float, kind: str = "lowpass") -> np.ndarray:
     """Digital Butterworth (bilinear, prewarped at ``cutoff`` Hz) as sections (S, 6);
     order 0 gives an identity section."""
@@ -361,6 +405,9 @@ class BaseCompensator:
     Config: ClassVar[type] = CompensatorConfig
     rank: ClassVar[int] = 100
     """Position in listings and ``all`` tables (fixed schemes first, then adaptive ones)."""
+    adaptive: ClassVar[bool] = False
+    """Whether its coefficients change during a test (its :meth:`history` is copied after
+    every step) and its kernel may raise safety events (:meth:`events`)."""
 
     def __init__(self, config: Any, K: int, n: int, dt: float):
         if not (isinstance(K, Integral) and K >= 1 and isinstance(n, Integral) and n >= 1):
@@ -427,6 +474,12 @@ class BaseCompensator:
         kernel (the compiled loop runs it); None for those stepped from Python."""
         return None
 
+    def events(self, call: int | None = None, tests: slice = slice(None)) -> None:
+        """Turn the safety events its kernel raised for ``tests`` (a :data:`COMP_SIG` kernel
+        returned True) into stops at call ``call``; nothing for a compensator without
+        any."""
+        return None
+
     # -- stops -------------------------------------------------------------------------
     def _stop(self, k: int, quantity: str, value: float, limit: float, unit: str = "",
               call: int | None = None) -> None:
@@ -441,10 +494,12 @@ class BaseCompensator:
         self.reasons[k] = stop.reason
 
     def _events(self, code: np.ndarray, value: np.ndarray, limit: np.ndarray,
-                labels: Sequence[str], units: Sequence[str]) -> None:
-        """Turn kernel events into stops: ``code`` (K, n) int (0: none, i ≥ 1: ``labels[i-1]``),
-        with the offending ``value`` and ``limit`` (K, n)."""
-        for k in range(self.K):
+                labels: Sequence[str], units: Sequence[str], call: int | None = None,
+                tests: slice = slice(None)) -> None:
+        """Turn kernel events into stops: ``code`` (K, n) (0: none, i ≥ 1: ``labels[i-1]``),
+        with the offending ``value`` and ``limit`` (K, n), at call ``call`` (default: this
+        one), for ``tests``."""
+        for k in range(self.K)[tests]:
             if self.stops[k] is not None:
                 continue
             hit = np.flatnonzero(code[k])
@@ -453,7 +508,7 @@ class BaseCompensator:
                 c = int(code[k, j]) - 1
                 label = labels[c].format(ch=j)
                 self._stop(k, f"{self.name} {label}", float(value[k, j]),
-                           float(limit[k, j]), units[c])
+                           float(limit[k, j]), units[c], call)
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(K={self.K}, n={self.n}, dt={self.dt:g}, {self.config})"

@@ -14,6 +14,7 @@ def copy_kernel(p, s, z, zd, zm, u):
     """u = z."""
     for r in range(z.shape[0]):
         u[r] = z[r]
+    return False
 
 
 @dataclass(frozen=True)

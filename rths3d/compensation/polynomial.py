@@ -24,6 +24,7 @@ def polynomial_kernel(p, s, z, zd, zm, u):
         for j in range(1, m):
             acc += p[r, j] * s[r, j]
         u[r] = acc
+    return False
 
 
 def lagrange_weights(tau: float, dt: float, order: int) -> np.ndarray:

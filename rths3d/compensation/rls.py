@@ -28,7 +28,6 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from numba import njit
 
 from .base import (
     WATCH_STATES,
@@ -38,9 +37,11 @@ from .base import (
     channel_blocks,
     check,
     check_bounds,
+    comp_kernel,
+    comp_ready,
     register,
-    sos_step,
-    watch_step,
+    sos_row,
+    watch_row,
 )
 
 INCH = 0.0254
@@ -108,103 +109,135 @@ _U_PREV, _PEAK, _FILLED, _TIMER, _IDX = range(5)
 NSTATE = 5
 
 
-@njit(cache=True, nogil=True)
-def _rls_step(z, zm, u, theta, used, P, xr, zr, st, zi_u, zi_x, sos, watch, hp, wp, stopped,
-              code, ev_val, ev_lim, prm):
-    """One call for all (K, n) channels. ``prm`` = [dt, spacing (samples), λ, p_cap (trace),
-    threshold, peak decay, gain lo, gain hi, lead lo, lead hi, bound_time]; ``wp``: the
-    watch's parameters. Rings ``xr``/``zr`` (K, n, L) hold filtered x_m and z."""
-    dt = prm[0]
-    sp = int(prm[1])
-    lam = prm[2]
-    p_cap = prm[3]
-    thr, decay = prm[4], prm[5]
-    glo, ghi, llo, lhi, bound_time = prm[6], prm[7], prm[8], prm[9], prm[10]
-    K, n = z.shape
-    N = theta.shape[2]
-    L = xr.shape[2]
+# the per-row parameters (``p`` of the kernel, (R, P)): scalars, the watch's parameters,
+# its high-pass section, the low-pass sections
+(_P_N, _P_DT, _P_SP, _P_LAM, _P_CAP, _P_THR, _P_DECAY, _P_GLO, _P_GHI, _P_LLO, _P_LHI,
+ _P_BT, _P_TAPS, _P_L, _P_NSEC) = range(15)
+_P_WP, _P_HP, _P_SOS = 15, 20, 26
+# the per-row state (``s`` of the kernel, (R, S)) after the head (n·N + 1 columns, used in
+# the first row of each test: the θ in use per channel, then the stop flag, so that the
+# coefficients of a test are contiguous and the history a view): the scalars (NSTATE), the
+# event (code, value, limit), the watch, then θ, P, the rings and the filter states
+_S_CODE, _S_VAL, _S_LIM, _S_WATCH = NSTATE, NSTATE + 1, NSTATE + 2, NSTATE + 3
+_S_TH = _S_WATCH + WATCH_STATES
+
+
+@comp_kernel
+def rls_kernel(p, s, z, zd, zm, u):
+    """One call of the RLS compensator for R = K·n rows (test-major): ``p`` (R, P) the
+    parameters, ``s`` (R, S) the state (layout: the ``_P_*``, ``_S_*`` offsets; the head of
+    each test's first row holds the θ in use and the stop flag). The whole compensator —
+    filters, the RLS update with its covariance cap, the bounded readings of θ and their
+    drift stop, the FIR command, the oscillation watch — for :meth:`RLSCompensator.command`
+    and the compiled loops alike. Returns True when a new safety event was raised."""
+    n = int(p[0, _P_N])
+    N = int(p[0, _P_TAPS])
+    H = n * N + 1
+    K = z.shape[0] // n
     event = False
     phi = np.empty(N)
     Pphi = np.empty(N)
     for k in range(K):
-        if stopped[k]:
+        h0 = k * n
+        head = s[h0]
+        if head[n * N] != 0.0:
             continue
         for j in range(n):
-            s = st[k, j]
-            uf = sos_step(sos, zi_u[k, j], s[_U_PREV])
-            xf = sos_step(sos, zi_x[k, j], zm[k, j])
-            idx = int(s[_IDX])
-            xr[k, j, idx] = xf
-            zr[k, j, idx] = z[k, j]
-            am = abs(zm[k, j])
-            s[_PEAK] = am if am > s[_PEAK] * decay else s[_PEAK] * decay
-            if s[_FILLED] < L:
-                s[_FILLED] += 1.0
-            if s[_FILLED] >= L and s[_PEAK] >= thr:
+            row = h0 + j
+            pr = p[row]
+            sr = s[row]
+            dt = pr[_P_DT]
+            sp = int(pr[_P_SP])
+            lam = pr[_P_LAM]
+            p_cap = pr[_P_CAP]
+            thr, decay = pr[_P_THR], pr[_P_DECAY]
+            glo, ghi, llo, lhi, bound_time = pr[_P_GLO], pr[_P_GHI], pr[_P_LLO], \
+                pr[_P_LHI], pr[_P_BT]
+            L = int(pr[_P_L])
+            nsec = int(pr[_P_NSEC])
+            st = H
+            th = H + _S_TH
+            pp = th + N
+            xr = pp + N * N
+            zr = xr + L
+            zi_u = zr + L
+            zi_x = zi_u + 2 * nsec
+            ca = j * N  # this channel's θ in use, in the head
+            uf = sos_row(pr, _P_SOS, nsec, sr, zi_u, sr[st + _U_PREV])
+            xf = sos_row(pr, _P_SOS, nsec, sr, zi_x, zm[row])
+            idx = int(sr[st + _IDX])
+            sr[xr + idx] = xf
+            sr[zr + idx] = z[row]
+            am = abs(zm[row])
+            sr[st + _PEAK] = am if am > sr[st + _PEAK] * decay else sr[st + _PEAK] * decay
+            if sr[st + _FILLED] < L:
+                sr[st + _FILLED] += 1.0
+            if sr[st + _FILLED] >= L and sr[st + _PEAK] >= thr:
                 for i in range(N):
-                    phi[i] = xr[k, j, (idx - i * sp) % L]
+                    phi[i] = sr[xr + (idx - i * sp) % L]
                 den = lam
                 err = uf
                 for r in range(N):
                     acc = 0.0
                     for c in range(N):
-                        acc += P[k, j, r, c] * phi[c]
+                        acc += sr[pp + r * N + c] * phi[c]
                     Pphi[r] = acc
                     den += phi[r] * acc
-                    err -= theta[k, j, r] * phi[r]
+                    err -= sr[th + r] * phi[r]
                 tr = 0.0
                 for r in range(N):
-                    theta[k, j, r] += Pphi[r] / den * err
+                    sr[th + r] += Pphi[r] / den * err
                 for r in range(N):
                     for c in range(r, N):
-                        v = (P[k, j, r, c] - Pphi[r] * Pphi[c] / den) / lam
-                        P[k, j, r, c] = v
-                        P[k, j, c, r] = v
-                    tr += P[k, j, r, r]
+                        v = (sr[pp + r * N + c] - Pphi[r] * Pphi[c] / den) / lam
+                        sr[pp + r * N + c] = v
+                        sr[pp + c * N + r] = v
+                    tr += sr[pp + r * N + r]
                 if tr > p_cap:
                     f = p_cap / tr
                     for r in range(N):
                         for c in range(N):
-                            P[k, j, r, c] *= f
+                            sr[pp + r * N + c] *= f
                 # the bounded readings of θ: DC gain and lead time
                 g = 0.0
                 m1 = 0.0
                 for i in range(N):
-                    g += theta[k, j, i]
-                    m1 += theta[k, j, i] * i
+                    g += sr[th + i]
+                    m1 += sr[th + i] * i
                 lead = -m1 * sp * dt / g if g != 0.0 else math.inf
                 inside = glo <= g <= ghi and llo <= lead <= lhi
                 if inside:
-                    s[_TIMER] = 0.0
+                    sr[st + _TIMER] = 0.0
                     for i in range(N):
-                        used[k, j, i] = theta[k, j, i]
+                        head[ca + i] = sr[th + i]
                 else:
-                    s[_TIMER] += dt
-                    if s[_TIMER] > bound_time and code[k, j] == 0:
+                    sr[st + _TIMER] += dt
+                    if sr[st + _TIMER] > bound_time and sr[H + _S_CODE] == 0.0:
                         if not (glo <= g <= ghi):
-                            code[k, j] = 1
-                            ev_val[k, j] = g
-                            ev_lim[k, j] = glo if g < glo else ghi
+                            sr[H + _S_CODE] = 1.0
+                            sr[H + _S_VAL] = g
+                            sr[H + _S_LIM] = glo if g < glo else ghi
                         else:
-                            code[k, j] = 2
-                            ev_val[k, j] = lead
-                            ev_lim[k, j] = llo if lead < llo else lhi
+                            sr[H + _S_CODE] = 2.0
+                            sr[H + _S_VAL] = lead
+                            sr[H + _S_LIM] = llo if lead < llo else lhi
                         event = True
             # command: the FIR on the desired displacement
             uk = 0.0
             for i in range(N):
-                uk += used[k, j, i] * zr[k, j, (idx - i * sp) % L]
-            s[_IDX] = (idx + 1) % L
-            s[_U_PREV] = uk
-            u[k, j] = uk
-            osc, ru, lim = watch_step(hp, watch[k, j], uk, z[k, j], wp)
-            if osc and code[k, j] == 0:
-                code[k, j] = 3
-                ev_val[k, j] = ru
-                ev_lim[k, j] = lim
+                uk += head[ca + i] * sr[zr + (idx - i * sp) % L]
+            sr[st + _IDX] = (idx + 1) % L
+            sr[st + _U_PREV] = uk
+            u[row] = uk
+            osc, ru, lim = watch_row(pr, _P_WP, _P_HP, sr, H + _S_WATCH, uk, z[row])
+            if osc and sr[H + _S_CODE] == 0.0:
+                sr[H + _S_CODE] = 3.0
+                sr[H + _S_VAL] = ru
+                sr[H + _S_LIM] = lim
                 event = True
-        if code[k].any():
-            stopped[k] = True
+        for j in range(n):
+            if s[h0 + j, H + _S_CODE] != 0.0:
+                head[n * N] = 1.0
     return event
 
 
@@ -234,6 +267,7 @@ class RLSCompensator(BaseCompensator):
 
     name = "rls"
     rank = 60
+    adaptive = True
     Config = RLSConfig
 
     def __init__(self, config: RLSConfig, K: int, n: int, dt: float):
@@ -249,46 +283,58 @@ class RLSCompensator(BaseCompensator):
         lam = math.exp(-dt / c.memory) if math.isfinite(c.memory) else 1.0
         self.sos = butter_sos(c.filter_order, c.filter_hz, dt)
         self.hp = butter_sos(2, c.osc_corner, dt, "highpass")
-        self.prm = np.array([dt, self.sp, lam, c.p0 * N, c.threshold, math.exp(-dt / 1.0),
-                             c.gain_bounds[0], c.gain_bounds[1], c.lead_bounds[0],
-                             c.lead_bounds[1], c.bound_time])
         self.wp = c.watch_params(dt)
-        S = self.sos.shape[0]
-        self.theta = np.zeros((K, n, N))
-        self.used = np.zeros((K, n, N))
-        self.P = np.zeros((K, n, N, N))
-        self.xr = np.zeros((K, n, L))
-        self.zr = np.zeros((K, n, L))
-        self.st = np.zeros((K, n, NSTATE))
-        self.zi_u = np.zeros((K, n, S, 2))
-        self.zi_x = np.zeros((K, n, S, 2))
-        self.watch = np.zeros((K, n, WATCH_STATES))
-        self.code = np.zeros((K, n), dtype=np.int64)
-        self.ev_val = np.zeros((K, n))
-        self.ev_lim = np.zeros((K, n))
+        nsec = self.sos.shape[0]
+        R = K * n
+        # the kernel's arrays (rows test-major, row = k·n + j): its parameters ...
+        p = np.zeros((R, _P_SOS + 6 * nsec))
+        p[:, :_P_WP] = [n, dt, self.sp, lam, c.p0 * N, c.threshold, math.exp(-dt / 1.0),
+                        c.gain_bounds[0], c.gain_bounds[1], c.lead_bounds[0],
+                        c.lead_bounds[1], c.bound_time, N, L, nsec]
+        p[:, _P_WP:_P_HP] = self.wp
+        p[:, _P_HP:_P_SOS] = self.hp[0]
+        p[:, _P_SOS:] = self.sos.reshape(-1)
+        self.params = p
+        # ... and its state; the Python object reads views of them
+        H = n * N + 1
+        th = H + _S_TH
+        self.state = s = np.zeros((R, th + N + N * N + 2 * L + 4 * nsec))
+        self.used = s.reshape(K, n * s.shape[1])[:, :n * N].reshape(K, n, N)
+        """θ in use (K, n, N) (a view of the kernel's state)."""
+        self.theta = s[:, th:th + N].reshape(K, n, N)
+        """The latest RLS estimate of θ (K, n, N)."""
+        self.P = s[:, th + N:th + N + N * N].reshape(K, n, N, N)
+        self.code = s[:, H + _S_CODE].reshape(K, n)
+        self.ev_val = s[:, H + _S_VAL].reshape(K, n)
+        self.ev_lim = s[:, H + _S_LIM].reshape(K, n)
         self._gain = np.zeros((K, n))
         self._lead = np.zeros((K, n))
         self.reset()
 
     def reset(self) -> None:
         super().reset()
+        self.state[:] = 0.0
         self.theta[:] = self.theta_init
         self.used[:] = self.theta_init
-        self.P[:] = 0.0
         idx = np.arange(self.config.taps)
         self.P[:, :, idx, idx] = self.config.p0
-        for arr in (self.xr, self.zr, self.st, self.zi_u, self.zi_x, self.watch, self.ev_val,
-                    self.ev_lim):
-            arr[:] = 0.0
-        self.code[:] = 0
 
     def command(self, z: np.ndarray, zdot: np.ndarray, z_meas: np.ndarray) -> np.ndarray:
-        if _rls_step(z, z_meas, self.u, self.theta, self.used, self.P, self.xr, self.zr,
-                     self.st, self.zi_u, self.zi_x, self.sos, self.watch, self.hp, self.wp,
-                     self.stopped, self.code, self.ev_val, self.ev_lim, self.prm):
-            self._events(self.code, self.ev_val, self.ev_lim, LABELS, UNITS)
+        if rls_kernel(self.params, self.state, np.ascontiguousarray(z).reshape(-1),
+                      np.ascontiguousarray(zdot).reshape(-1),
+                      np.ascontiguousarray(z_meas).reshape(-1), self.u.reshape(-1)):
+            self.events()
         self.calls += 1
         return self.u
+
+    def events(self, call: int | None = None, tests: slice = slice(None)) -> None:
+        """The kernel's new safety events of ``tests`` as stops (at call ``call``, default
+        this one): the compiled loop calls this after the step whose kernel call returned
+        True."""
+        self._events(self.code, self.ev_val, self.ev_lim, LABELS, UNITS, call, tests)
+
+    def compiled(self):
+        return (comp_ready(rls_kernel),), self.params, self.state
 
     prior_keys = ("theta0",)
 

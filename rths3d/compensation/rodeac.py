@@ -43,8 +43,10 @@ from .base import (
     channel_blocks,
     check,
     check_bounds,
+    comp_kernel,
+    comp_ready,
     register,
-    watch_step,
+    watch_row,
 )
 
 
@@ -102,99 +104,129 @@ class RoDeACConfig(WatchConfig):
         check("rodeac.bound_time", self.bound_time, self.bound_time >= 0.0, "must be ≥ 0 s")
 
 
-@njit(cache=True, nogil=True)
-def _lfilter_step(b, a, zi, x):
-    """One sample of ``b/a`` (transposed direct form II, a[0] = 1); state ``zi`` (order,)."""
-    n = zi.shape[0]
-    y = b[0] * x + (zi[0] if n else 0.0)
-    for i in range(n - 1):
-        zi[i] = b[i + 1] * x - a[i + 1] * y + zi[i + 1]
-    if n:
-        zi[n - 1] = b[n] * x - a[n] * y
+_TIMER = 0
+# the per-row parameters (``p`` of the kernel, (R, P)): scalars, the watch's parameters,
+# its high-pass section, then the measurement filter's b and a (order + 1 each)
+_P_N, _P_TAPS, _P_ORDER, _P_SCALE, _P_LAM, _P_EXACT, _P_GLO, _P_GHI, _P_BT, _P_DT = range(10)
+_P_WP, _P_HP, _P_B = 10, 15, 21
+# the per-row state (``s`` of the kernel, (R, S)) after the head (n·N + 1 columns, used in
+# the first row of each test: θ per channel, then the stop flag, so that the coefficients
+# of a test are contiguous and the history a view): the timer, the event (code, value,
+# limit), the watch, then P, the target and measurement taps and the filter states
+_S_CODE, _S_VAL, _S_LIM, _S_WATCH = 1, 2, 3, 4
+_S_P = _S_WATCH + WATCH_STATES
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _lfilter_row(p, bo, ao, order, s, zo, x):
+    """One sample of ``b/a`` (transposed direct form II, a[0] = 1) with ``b``/``a`` in the
+    parameter row ``p`` from ``bo``/``ao`` and the state (``order`` values) in the state
+    row ``s`` from ``zo``."""
+    y = p[bo] * x + (s[zo] if order else 0.0)
+    for i in range(order - 1):
+        s[zo + i] = p[bo + i + 1] * x - p[ao + i + 1] * y + s[zo + i + 1]
+    if order:
+        s[zo + order - 1] = p[bo + order] * x - p[ao + order] * y
     return y
 
 
-_TIMER = 0
-
-
-@njit(cache=True, nogil=True)
-def _rodeac_step(z, zm, u, theta, P, pt, px, zi_x, zi_u, st, b, a, watch, hp, wp, stopped,
-                 code, ev_val, ev_lim, prm, Pphi):
-    """One call for all (K, n) channels; ``prm`` = [scale, λ, exact loop, gain lo, gain hi,
-    bound_time, dt]. ``pt``/``px`` (K, n, N): target and filtered-measurement taps."""
-    scale, lam, exact = prm[0], prm[1], prm[2] > 0.5
-    glo, ghi, bound_time, dt = prm[3], prm[4], prm[5], prm[6]
-    b0 = b[0]
-    K, n = z.shape
-    N = theta.shape[2]
+@comp_kernel
+def rodeac_kernel(p, s, z, zd, zm, u):
+    """One call of RoDeAC for R = K·n rows (test-major): ``p`` (R, P) the parameters, ``s``
+    (R, S) the state (layout: the ``_P_*``, ``_S_*`` offsets; the head of each test's first
+    row holds θ and the stop flag). The whole compensator — the taps, the RLS update with
+    the algebraic loop, the command, the gain bound, the non-finite and oscillation watch —
+    for :meth:`RoDeACCompensator.command` and the compiled loops alike. Returns True when a
+    new safety event was raised."""
+    n = int(p[0, _P_N])
+    N = int(p[0, _P_TAPS])
+    H = n * N + 1
+    K = z.shape[0] // n
     event = False
+    Pphi = np.empty(N)
     for k in range(K):
-        if stopped[k]:
+        h0 = k * n
+        head = s[h0]
+        if head[n * N] != 0.0:
             continue
         for j in range(n):
-            xt = z[k, j] * scale
-            xm = zm[k, j] * scale
+            row = h0 + j
+            pr = p[row]
+            sr = s[row]
+            order = int(pr[_P_ORDER])
+            scale, lam, exact = pr[_P_SCALE], pr[_P_LAM], pr[_P_EXACT] > 0.5
+            glo, ghi, bound_time, dt = pr[_P_GLO], pr[_P_GHI], pr[_P_BT], pr[_P_DT]
+            bo = _P_B
+            ao = _P_B + order + 1
+            b0 = pr[bo]
+            pp = H + _S_P
+            pt = pp + N * N
+            px = pt + N
+            zi_x = px + N
+            zi_u = zi_x + order
+            th = j * N  # this channel's θ, in the head
+            xt = z[row] * scale
+            xm = zm[row] * scale
             for i in range(N - 1, 0, -1):
-                pt[k, j, i] = pt[k, j, i - 1]
-                px[k, j, i] = px[k, j, i - 1]
-            pt[k, j, 0] = xt
-            px[k, j, 0] = _lfilter_step(b, a, zi_x[k, j], xm)
+                sr[pt + i] = sr[pt + i - 1]
+                sr[px + i] = sr[px + i - 1]
+            sr[pt] = xt
+            sr[px] = _lfilter_row(pr, bo, ao, order, sr, zi_x, xm)
             den = lam
             th_t = 0.0
             th_m = 0.0
             for r in range(N):
                 acc = 0.0
                 for c in range(N):
-                    acc += P[k, j, r, c] * px[k, j, c]
+                    acc += sr[pp + r * N + c] * sr[px + c]
                 Pphi[r] = acc
-                den += px[k, j, r] * acc
-                th_t += theta[k, j, r] * pt[k, j, r]
-                th_m += theta[k, j, r] * px[k, j, r]
-            rk = zi_u[k, j, 0] if zi_u.shape[2] else 0.0
+                den += sr[px + r] * acc
+                th_t += head[th + r] * sr[pt + r]
+                th_m += head[th + r] * sr[px + r]
+            rk = sr[zi_u] if order else 0.0
             e = b0 * th_t + rk - th_m
             if exact:
                 gt = 0.0
                 for r in range(N):
-                    gt += Pphi[r] * pt[k, j, r]
+                    gt += Pphi[r] * sr[pt + r]
                 e = e / (1.0 - b0 * gt / den)
             for r in range(N):
-                theta[k, j, r] += Pphi[r] / den * e
+                head[th + r] += Pphi[r] / den * e
             for r in range(N):
                 for c in range(r, N):
-                    v = (P[k, j, r, c] - Pphi[r] * Pphi[c] / den) / lam
-                    P[k, j, r, c] = v
-                    P[k, j, c, r] = v
+                    v = (sr[pp + r * N + c] - Pphi[r] * Pphi[c] / den) / lam
+                    sr[pp + r * N + c] = v
+                    sr[pp + c * N + r] = v
             uk = 0.0
             g = 0.0
             for r in range(N):
-                uk += theta[k, j, r] * pt[k, j, r]
-                g += theta[k, j, r]
-            _lfilter_step(b, a, zi_u[k, j], uk)
-            u[k, j] = uk / scale
-            s = st[k, j]
+                uk += head[th + r] * sr[pt + r]
+                g += head[th + r]
+            _lfilter_row(pr, bo, ao, order, sr, zi_u, uk)
+            u[row] = uk / scale
             if not (glo <= g <= ghi):
-                s[_TIMER] += dt
-                if s[_TIMER] > bound_time and code[k, j] == 0:
-                    code[k, j] = 1
-                    ev_val[k, j] = g
-                    ev_lim[k, j] = glo if g < glo else ghi
+                sr[H + _TIMER] += dt
+                if sr[H + _TIMER] > bound_time and sr[H + _S_CODE] == 0.0:
+                    sr[H + _S_CODE] = 1.0
+                    sr[H + _S_VAL] = g
+                    sr[H + _S_LIM] = glo if g < glo else ghi
                     event = True
             else:
-                s[_TIMER] = 0.0
-            if not math.isfinite(uk) and code[k, j] == 0:
-                code[k, j] = 2
-                ev_val[k, j] = uk
-                ev_lim[k, j] = 0.0
+                sr[H + _TIMER] = 0.0
+            if not math.isfinite(uk) and sr[H + _S_CODE] == 0.0:
+                sr[H + _S_CODE] = 2.0
+                sr[H + _S_VAL] = uk
+                sr[H + _S_LIM] = 0.0
                 event = True
-            osc, ru, lim = watch_step(hp, watch[k, j], u[k, j], z[k, j], wp)
-            if osc and code[k, j] == 0:
-                code[k, j] = 3
-                ev_val[k, j] = ru
-                ev_lim[k, j] = lim
+            osc, ru, lim = watch_row(pr, _P_WP, _P_HP, sr, H + _S_WATCH, u[row], z[row])
+            if osc and sr[H + _S_CODE] == 0.0:
+                sr[H + _S_CODE] = 3.0
+                sr[H + _S_VAL] = ru
+                sr[H + _S_LIM] = lim
                 event = True
         for j in range(n):
-            if code[k, j] != 0:
-                stopped[k] = True
+            if s[h0 + j, H + _S_CODE] != 0.0:
+                head[n * N] = 1.0
     return event
 
 
@@ -221,6 +253,7 @@ class RoDeACCompensator(BaseCompensator):
 
     name = "rodeac"
     rank = 65
+    adaptive = True
     Config = RoDeACConfig
 
     def __init__(self, config: RoDeACConfig, K: int, n: int, dt: float):
@@ -243,40 +276,52 @@ class RoDeACCompensator(BaseCompensator):
         order = self.a.size - 1
         self.hp = butter_sos(2, c.osc_corner, dt, "highpass")
         self.wp = c.watch_params(dt)
-        self.prm = np.array([c.signal_scale, c.forgetting, 1.0 if c.algebraic_loop else 0.0,
-                             c.gain_bounds[0], c.gain_bounds[1], c.bound_time, dt])
-        self.theta = np.zeros((K, n, N))
-        self.P = np.zeros((K, n, N, N))
-        self.pt = np.zeros((K, n, N))
-        self.px = np.zeros((K, n, N))
-        self.zi_x = np.zeros((K, n, order))
-        self.zi_u = np.zeros((K, n, order))
-        self.st = np.zeros((K, n, 1))
-        self.watch = np.zeros((K, n, WATCH_STATES))
-        self.code = np.zeros((K, n), dtype=np.int64)
-        self.ev_val = np.zeros((K, n))
-        self.ev_lim = np.zeros((K, n))
-        self._Pphi = np.zeros(N)
+        R = K * n
+        # the kernel's arrays (rows test-major, row = k·n + j): its parameters ...
+        p = np.zeros((R, _P_B + 2 * (order + 1)))
+        p[:, :_P_WP] = [n, N, order, c.signal_scale, c.forgetting,
+                        1.0 if c.algebraic_loop else 0.0, c.gain_bounds[0], c.gain_bounds[1],
+                        c.bound_time, dt]
+        p[:, _P_WP:_P_HP] = self.wp
+        p[:, _P_HP:_P_B] = self.hp[0]
+        p[:, _P_B:_P_B + order + 1] = self.b
+        p[:, _P_B + order + 1:] = self.a
+        self.params = p
+        # ... and its state; the Python object reads views of them
+        H = n * N + 1
+        pp = H + _S_P
+        self.state = s = np.zeros((R, pp + N * N + 2 * N + 2 * order))
+        self.theta = s.reshape(K, n * s.shape[1])[:, :n * N].reshape(K, n, N)
+        """θ (K, n, N) (a view of the kernel's state)."""
+        self.P = s[:, pp:pp + N * N].reshape(K, n, N, N)
+        self.code = s[:, H + _S_CODE].reshape(K, n)
+        self.ev_val = s[:, H + _S_VAL].reshape(K, n)
+        self.ev_lim = s[:, H + _S_LIM].reshape(K, n)
         self._gain = np.zeros((K, n))
         self.reset()
 
     def reset(self) -> None:
         super().reset()
+        self.state[:] = 0.0
         self.theta[:] = self.theta_init
         self.P[:] = self.p_init
-        for arr in (self.pt, self.px, self.zi_x, self.zi_u, self.st, self.watch, self.ev_val,
-                    self.ev_lim):
-            arr[:] = 0.0
-        self.code[:] = 0
 
     def command(self, z: np.ndarray, zdot: np.ndarray, z_meas: np.ndarray) -> np.ndarray:
-        if _rodeac_step(z, z_meas, self.u, self.theta, self.P, self.pt, self.px, self.zi_x,
-                        self.zi_u, self.st, self.b, self.a, self.watch, self.hp, self.wp,
-                        self.stopped, self.code, self.ev_val, self.ev_lim, self.prm,
-                        self._Pphi):
-            self._events(self.code, self.ev_val, self.ev_lim, LABELS, UNITS)
+        if rodeac_kernel(self.params, self.state, np.ascontiguousarray(z).reshape(-1),
+                         np.ascontiguousarray(zdot).reshape(-1),
+                         np.ascontiguousarray(z_meas).reshape(-1), self.u.reshape(-1)):
+            self.events()
         self.calls += 1
         return self.u
+
+    def events(self, call: int | None = None, tests: slice = slice(None)) -> None:
+        """The kernel's new safety events of ``tests`` as stops (at call ``call``, default
+        this one): the compiled loop calls this after the step whose kernel call returned
+        True."""
+        self._events(self.code, self.ev_val, self.ev_lim, LABELS, UNITS, call, tests)
+
+    def compiled(self):
+        return (comp_ready(rodeac_kernel),), self.params, self.state
 
     def history(self) -> np.ndarray:
         return self.theta

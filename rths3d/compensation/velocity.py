@@ -23,6 +23,7 @@ def velocity_kernel(p, s, z, zd, zm, u):
     """u = ż τ_c + z per row (τ_c = 0: u = z)."""
     for r in range(z.shape[0]):
         u[r] = zd[r] * p[r, 0] + z[r]
+    return False
 
 
 @dataclass(frozen=True)

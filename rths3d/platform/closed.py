@@ -2,16 +2,19 @@
 
 :func:`closed_range` advances a range of interface steps of K tests in one compiled call:
 the linear numerical substructure's step (:func:`~rths3d.numerical._kernels.linear_step`)
-and the command check, the compensator's kernel (fixed schemes with ``compiled()``), the
+and the command check, the compensator's kernel (those with ``compiled()``: the fixed
+schemes, ATS and RLS with their adaptation and drift stops; per interface DOF, or per leg
+in place of the platform's leg hook), the
 platform's step as :meth:`PlatformBatch.advance <rths3d.platform.sim.PlatformBatch.advance>`
 takes it (inverse kinematics, set-point blocks, the servo's hold, ``mj_step``/``mj_forward``
 through MuJoCo's C API, :mod:`rths3d.platform.compiled`), the FTS and sampling, the sensor
 chain and the measurement noise (draws taken before the range, in the order the Python
 driver draws them), the copies of the record signals, the record row and the force
 checks. A step in which the platform stops a test (a command or measured limit, a
-divergence) is taken in full and ends the call; :class:`ClosedRange` then does what needs
-Python for it (the :class:`~rths3d.errors.SafetyStop` and its reason, the monitor's stop)
-with the Python driver's own methods, and the next call goes on. The Python driver
+divergence) or the compensator raises its drift stop is taken in full and ends the call;
+:class:`ClosedRange` then does what needs Python for it (the
+:class:`~rths3d.errors.SafetyStop` and its reason, the monitor's stop) with the Python
+driver's own methods, and the next call goes on. The Python driver
 (:meth:`rths3d.loop._Group._python`) stays the readable reference; both give the same
 record (tests/test_closed_stewart.py).
 """
@@ -47,7 +50,9 @@ from .compiled import (
     read_fts,
 )
 from .kernels import (
+    commands_out,
     interface_command,
+    leg_channels,
     leg_setpoints,
     measured_over,
     ramp_ctrl,
@@ -164,12 +169,13 @@ def closed_range(n0, n1, w0, k0, num, mon, rec, comp, io, sens, znz, hist, plat)
     buffers' first row; ``k0``: the platform's step count at n0. Returns (steps done,
     code): code 0 ran through (or every test stopped); 1 the last step done stopped a test
     on the platform's side (``cmd[0]``: by a command limit, its L − L_home and ΔL in
-    ``cmd[1]``, ``cmd[2]``), the driver finishes it."""
+    ``cmd[1]``, ``cmd[2]``) or raised a compensator's safety event, the driver finishes
+    it."""
     Ad, Bf, P, s, s_next, Czx, Czv, Cx = num
     (lim_z, lim_v, lim_x, lim_f, g_win, g_fac, g_n, g_floor, g_pk, g_prev, g_base, g_cnt,
      active, code, dof, value, row) = mon
     data, c_zc, c_zm, c_f, c_x = rec
-    cf, cp, cs = comp
+    cf, cp, cs, legs, lrates, ls_des, ls_rate, ls_meas, lu = comp
     z, zd, x, u, zm, fm, fraw, poses, idx, cmd_flag, cmd_s, cmd_dl = io
     sfs, sps, sss, sempty, swb = sens
     zhas, zfs, zps, zss, zwb = znz
@@ -195,15 +201,27 @@ def closed_range(n0, n1, w0, k0, num, mon, rec, comp, io, sens, znz, hist, plat)
             _halt(P, s, active, row, n, True)
             if not active.any():
                 return n - n0, 0
-        cf[0](cp, cs, zr, zdr, zmr, ur)
+        # an adaptive compensator's drift or oscillation stop: the step is taken in full,
+        # then handed back (the driver turns the event into the stop)
+        if legs:  # per-leg compensation (LegCompensation.command): z on, ż to the legs' rates
+            event = False
+            for r in range(zr.shape[0]):
+                ur[r] = zr[r]
+            interface_command(zd, idx, lrates)
+        else:
+            event = cf[0](cp, cs, zr, zdr, zmr, ur)
         interface_command(u, idx, poses)
         # the platform's step (PlatformBatch.advance, sample=True)
         if any_start:
             take_sample(start, True, qlive, legs_q, legs_f, Rlive, tq, tlq, tlf, tR, sf, st, C,
                         bo, reading)
-        event = False
         cmd_flag[0] = False
-        if leg_setpoints(poses, b, p, hh, home, ffg, Lprev, L, sp, half, vdt, run, True,
+        if legs:  # the platform's leg hook (LegCompensation.__call__)
+            leg_channels(poses, lrates, b, p, hh, home, legs_q, ls_des, ls_rate, ls_meas)
+            if cf[0](cp, cs, flat(ls_des), flat(ls_rate), flat(ls_meas), flat(lu)):
+                event = True
+            commands_out(lu, home, L)
+        if leg_setpoints(poses, b, p, hh, home, ffg, Lprev, L, sp, half, vdt, run, not legs,
                          ffn, Lnext, ahead):
             # the driver stops those tests (PlatformBatch._command_limits); they are not
             # stepped from here on
@@ -270,13 +288,16 @@ _CLOSED = AnyLayout(closed_range)
 
 def closed_ok(transfer: Any) -> bool:
     """Whether the compiled closed loop can step this Stewart transfer system: a compensator
-    with a kernel (fixed schemes, per interface DOF), inverse kinematics of the poses (no
-    per-leg hook), no noise in the set-point blocks, no per-test model fields expanded
+    with a kernel (fixed schemes, ATS, RLS; per interface DOF, or per leg in place of the
+    platform's hook), no noise in the set-point blocks, no per-test model fields expanded
     inside a ``mujoco.batch.Batch``, at most one noise block in the sensor chain."""
     from .ranges import compiled_ok
 
     sim = transfer.sim
-    if transfer.compensator.compiled() is None or not compiled_ok(sim):
+    comp = transfer.compensator
+    hook = sim.leg_hook
+    if comp.compiled() is None or (hook is not None and hook is not comp) \
+            or not compiled_ok(sim, hook=hook is not None):
         return False
     if sim.needs_next_setpoint:
         return False
@@ -323,6 +344,11 @@ class ClosedRange:
         K, nd = g.K, g.nd
         self.num_c = g.num.compiled()
         self.comp = tr.compensator.compiled()
+        comp = tr.compensator
+        self.legs = sim_hook = self.sim.leg_hook is not None
+        # per-leg compensation steps the hook's own arrays (the Python driver's too)
+        self.leg_arrays = (comp.rates, comp.s_des, comp.s_rate, comp.s_meas, comp.comp.u) \
+            if sim_hook else tuple(np.zeros((K, 6)) for _ in range(5))
         self.u = np.zeros((K, nd))
         self.fraw = tr._f
         self.hist = tuple((sig.source.reshape(sig.source.shape[0], -1),
@@ -368,7 +394,9 @@ class ClosedRange:
         mon = tuple(x[sl] for x in g._monitor_arrays())
         rec = (g.data[:, sl], g.c_zc, g.c_zm, g.c_f, g.c_x)
         cf, cp, cs = self.comp
-        comp = (cf, cp[a * nd:b * nd], cs[a * nd:b * nd])
+        w = 6 if self.legs else nd  # the compensator's channels per test
+        comp = (cf, cp[a * w:b * w], cs[a * w:b * w], self.legs,
+                *(x[sl] for x in self.leg_arrays))
         cmd = (np.zeros(1, dtype=np.bool_), np.zeros((b - a, 6)), np.zeros((b - a, 6)))
         io = (g.num.z[sl], g.num.zdot[sl], g.num.x[sl], self.u[sl], tr.z_meas[sl],
               tr.f_meas[sl], self.fraw[sl], sim.poses[sl], tr.idx, *cmd)
@@ -475,6 +503,14 @@ class ClosedRange:
         if sim.any_stopped:
             tr.stopped[:] = sim.stopped
             tr.reasons = list(sim.reasons)
+        comp = tr.compensator
+        if comp.adaptive:  # its kernel's new events (StewartTransfer.step's order)
+            comp.events(n, sl)
+            if comp.any_stopped:
+                for kk in np.flatnonzero(comp.stopped[sl] & ~tr.stopped[sl]):
+                    kk = a + int(kk)
+                    tr.stopped[kk] = True
+                    tr.reasons[kk] = comp.reasons[kk]
         for j in np.flatnonzero(tr.stopped[sl] & mon.active[sl]):
             kk = a + int(j)
             mon.stop(kk, tr.reasons[kk], n)

@@ -15,7 +15,8 @@ from ..kernels import njit
 
 __all__ = ["copy_fts", "end_ramp", "fts_distort", "interface_command", "leg_lengths_of",
            "leg_setpoints", "measured_over", "plate_pose", "quat_rows", "ramp_ctrl",
-           "read_interface", "rotation", "take_sample", "world_wrench"]
+           "read_interface", "rotation", "take_sample", "world_wrench", "leg_channels",
+           "commands_out"]
 
 
 def _quat_to_euler(w: float, x: float, y: float, z: float) -> tuple[float, float, float]:
@@ -57,6 +58,47 @@ def rotation(rx, ry, rz):  # pragma: no cover - jit
     return (cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx,
             sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx,
             -sy, cy * sx, cy * cx)
+
+
+@numba.njit(cache=True, nogil=True)
+def leg_channels(poses, rates, b, p, hh, home, q, s_des, s_rate, s_meas):
+    """The per-leg channels of K platforms, in one pass: the desired extensions
+    s = |l| − L_home with l = t + R p_i − b_i (the platform's inverse kinematics, home height
+    ``hh``), their rates ṡ = l·(ṫ + ω × R p_i)/|l| under the pose rates ``rates`` (K, 6)
+    (m/s, rad/s of the fixed-axis angles) and the measured extensions (the slide positions
+    ``q``), each (K, 6) in m or m/s (per-leg compensation, :mod:`rths3d.transfer.legs`)."""
+    for k in range(poses.shape[0]):
+        r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation(
+            poses[k, 3], poses[k, 4], poses[k, 5])
+        cz, sz = math.cos(poses[k, 5]), math.sin(poses[k, 5])
+        # ω = ṙz e_z + ṙy Rz e_y + ṙx Rz Ry e_x (R = Rz Ry Rx; Rz Ry e_x is R's first column)
+        ax, ay, az = rates[k, 3], rates[k, 4], rates[k, 5]
+        wx = -sz * ay + r00 * ax
+        wy = cz * ay + r10 * ax
+        wz = az + r20 * ax
+        for i in range(6):
+            px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+            rx = r00 * px + r01 * py + r02 * pz
+            ry = r10 * px + r11 * py + r12 * pz
+            rz = r20 * px + r21 * py + r22 * pz
+            lx = poses[k, 0] + rx - b[i, 0]
+            ly = poses[k, 1] + ry - b[i, 1]
+            lz = poses[k, 2] + hh + rz - b[i, 2]
+            vx = rates[k, 0] + wy * rz - wz * ry
+            vy = rates[k, 1] + wz * rx - wx * rz
+            vz = rates[k, 2] + wx * ry - wy * rx
+            L = math.sqrt(lx * lx + ly * ly + lz * lz)
+            s_des[k, i] = L - home[i]
+            s_rate[k, i] = (lx * vx + ly * vy + lz * vz) / L
+            s_meas[k, i] = q[k, i]
+
+
+@numba.njit(cache=True, nogil=True)
+def commands_out(u, home, L):
+    """The lengths to command, L = L_home + u."""
+    for k in range(L.shape[0]):
+        for i in range(6):
+            L[k, i] = home[i] + u[k, i]
 
 
 @numba.njit(cache=True, nogil=True, inline="always")

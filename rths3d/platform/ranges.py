@@ -38,11 +38,12 @@ class TrackRecord:
     stop: np.ndarray
 
 
-def compiled_ok(sim: PlatformBatch) -> bool:
+def compiled_ok(sim: PlatformBatch, hook: bool = False) -> bool:
     """Whether the compiled range can step this batch: inverse kinematics of the poses (no
-    per-leg hook), no noise in the set-point blocks, no per-test model fields expanded inside
-    a ``mujoco.batch.Batch`` (its own model copies)."""
-    if sim.leg_hook is not None or sim.setpoint_chain.noise is not None:
+    per-leg hook; ``hook``: the caller steps the hook itself), no noise in the set-point
+    blocks, no per-test model fields expanded inside a ``mujoco.batch.Batch`` (its own model
+    copies)."""
+    if (sim.leg_hook is not None and not hook) or sim.setpoint_chain.noise is not None:
         return False
     inner = sim.batch.batch
     return inner is None or not getattr(inner, "_expanded", {})

@@ -27,16 +27,15 @@ per-leg compensator stops its test like any other.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from numba import njit
 
 from ..compensation import BaseCompensator
 from ..config import Scene
-from ..platform.sim import PlatformBatch, interface_command, rotation
+from ..platform.kernels import commands_out, leg_channels
+from ..platform.sim import PlatformBatch, interface_command
 from ..record import DOFS
 from .commands import build_compensator
 
@@ -44,47 +43,6 @@ __all__ = ["LEG_CHANNELS", "LegCompensation", "leg_channels", "platform_compensa
 
 LEG_CHANNELS: tuple[str, ...] = tuple(f"leg{i}" for i in range(6))
 """Channel names of per-leg compensation (record columns ``comp.<coefficient>.leg<i>``)."""
-
-
-@njit(cache=True, nogil=True)
-def leg_channels(poses, rates, b, p, hh, home, q, s_des, s_rate, s_meas):
-    """The per-leg channels of K platforms, in one pass: the desired extensions
-    s = |l| − L_home with l = t + R p_i − b_i (the platform's inverse kinematics, home height
-    ``hh``), their rates ṡ = l·(ṫ + ω × R p_i)/|l| under the pose rates ``rates`` (K, 6)
-    (m/s, rad/s of the fixed-axis angles) and the measured extensions (the slide positions
-    ``q``), each (K, 6) in m or m/s."""
-    for k in range(poses.shape[0]):
-        r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation(
-            poses[k, 3], poses[k, 4], poses[k, 5])
-        cz, sz = math.cos(poses[k, 5]), math.sin(poses[k, 5])
-        # ω = ṙz e_z + ṙy Rz e_y + ṙx Rz Ry e_x (R = Rz Ry Rx; Rz Ry e_x is R's first column)
-        ax, ay, az = rates[k, 3], rates[k, 4], rates[k, 5]
-        wx = -sz * ay + r00 * ax
-        wy = cz * ay + r10 * ax
-        wz = az + r20 * ax
-        for i in range(6):
-            px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-            rx = r00 * px + r01 * py + r02 * pz
-            ry = r10 * px + r11 * py + r12 * pz
-            rz = r20 * px + r21 * py + r22 * pz
-            lx = poses[k, 0] + rx - b[i, 0]
-            ly = poses[k, 1] + ry - b[i, 1]
-            lz = poses[k, 2] + hh + rz - b[i, 2]
-            vx = rates[k, 0] + wy * rz - wz * ry
-            vy = rates[k, 1] + wz * rx - wx * rz
-            vz = rates[k, 2] + wx * ry - wy * rx
-            L = math.sqrt(lx * lx + ly * ly + lz * lz)
-            s_des[k, i] = L - home[i]
-            s_rate[k, i] = (lx * vx + ly * vy + lz * vz) / L
-            s_meas[k, i] = q[k, i]
-
-
-@njit(cache=True, nogil=True)
-def _commands_out(u, home, L):
-    """The lengths to command, L = L_home + u."""
-    for k in range(L.shape[0]):
-        for i in range(6):
-            L[k, i] = home[i] + u[k, i]
 
 
 class LegCompensation:
@@ -121,7 +79,7 @@ class LegCompensation:
         leg_channels(self.sim.poses, self.rates, self._b, self._p, self._hh, self._home,
                      self._q, self.s_des, self.s_rate, self.s_meas)
         u = self.comp.command(self.s_des, self.s_rate, self.s_meas)
-        _commands_out(u, self._home, L)
+        commands_out(u, self._home, L)
 
     # -- the interface compensator's face ----------------------------------------------------
     def command(self, z: np.ndarray, zdot: np.ndarray, z_meas: np.ndarray) -> np.ndarray:
@@ -170,8 +128,27 @@ class LegCompensation:
     def history_coefficients(self, states: np.ndarray) -> dict[str, np.ndarray]:
         return self.comp.history_coefficients(states)
 
-    def compiled(self) -> None:
-        return None
+    def compiled(self) -> Any:
+        """The leg compensator's kernel (:meth:`BaseCompensator.compiled`, K·6 rows): the
+        Stewart platform's compiled closed loop steps this hook itself; None when the leg
+        compensator has none (the Python driver steps it)."""
+        return self.comp.compiled()
+
+    @property
+    def adaptive(self) -> bool:
+        return self.comp.adaptive
+
+    def events(self, call: int | None = None, tests: slice = slice(None)) -> None:
+        self.comp.events(call, tests)
+
+    @property
+    def calls(self) -> int:
+        """The leg compensator's calls (one per step)."""
+        return self.comp.calls
+
+    @calls.setter
+    def calls(self, value: int) -> None:
+        self.comp.calls = value
 
     def __repr__(self) -> str:
         return f"LegCompensation({self.comp!r})"
