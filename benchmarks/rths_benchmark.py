@@ -67,8 +67,8 @@ def compensator_step_us(repeats: int, calls: int) -> dict[str, float]:
 def marths_case_s(repeats: int) -> tuple[float | None, float | None]:
     """Median wall time (s) of one maRTHS El Centro run with RoDeAC, and µs per step; None
     when the maRTHS data folder is absent."""
-    from rths3d.errors import ConfigError
     from rths3d.community.marths import MarthsConfig, data_dir, run_marths
+    from rths3d.errors import ConfigError
 
     try:
         data_dir()

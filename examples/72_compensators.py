@@ -129,13 +129,13 @@ def part1(plot: str) -> None:
 
 
 def part2() -> None:
-    from rths3d.errors import ConfigError
     from rths3d.community import BenchmarkConfig, load_excitation, run_case
     from rths3d.community.compensated import (
         calibrated_config,
         calibration_record,
         run_compensated,
     )
+    from rths3d.errors import ConfigError
 
     try:
         gm = load_excitation("ElCentro")

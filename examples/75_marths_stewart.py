@@ -47,10 +47,10 @@ def reference_structure(data, t: np.ndarray, intensity: float) -> np.ndarray:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from rths3d.community.marths.data import data_dir
     from rths3d.errors import RthsError
     from rths3d.figures import new_figure, save_figure
     from rths3d.loop import run
-    from rths3d.community.marths.data import data_dir
     from rths3d.scene import load_scene
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])

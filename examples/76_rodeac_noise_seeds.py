@@ -22,9 +22,9 @@ import numpy as np
 
 
 def main(argv: list[str] | None = None) -> int:
-    from rths3d.errors import RthsError
     from rths3d.community.marths import offline_calibration
     from rths3d.community.marths.data import data_dir
+    from rths3d.errors import RthsError
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=20, help="noise seeds 0 … N−1")
