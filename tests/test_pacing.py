@@ -107,7 +107,9 @@ def test_paced_run_takes_wall_time_and_keeps_the_record(tmp_path) -> None:
     assert set(STATS) <= set(st)
     assert st["steps"] == 1500 and st["rate_hz"] == pytest.approx(1000.0)
     assert 0 < st["latency_mean_s"] < 1e-3
-    assert 0 <= st["jitter_mean_s"] <= st["jitter_p99_s"] <= st["jitter_max_s"]
+    # (the mean may exceed the p99 when one step in a hundred is late by far: not ordered)
+    assert 0 <= st["jitter_p99_s"] <= st["jitter_max_s"]
+    assert 0 <= st["jitter_mean_s"] <= st["jitter_max_s"]
     assert 0 <= st["overruns"] <= st["steps"]
     # the pacer's own clock agrees with the test's: 1500 slots, plus the overruns' delays
     assert wall >= 1500 * 1e-3 - 1e-3
