@@ -13,7 +13,7 @@ import argparse
 from pathlib import Path
 
 from rths3d.platform import PlatformConfig, predicted_delay
-from rths3d.platform.identify import identify_heave, load_heave_tf
+from rths3d.platform.calibrate.heave import identify_heave, load_heave_tf
 
 
 def main() -> None:

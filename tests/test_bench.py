@@ -14,7 +14,7 @@ from rths3d.effects import noise_sigma
 from rths3d.errors import ConfigError
 from rths3d.loop import run, run_batch
 from rths3d.metrics import compute_measures
-from rths3d.platform.calibration import CalibratedGeometry
+from rths3d.platform.calibrate.kinematic import CalibratedGeometry
 from rths3d.platform.model import predicted_delay
 from rths3d.record import DOFS
 from rths3d.scene import load_scene, scene_from_dict, scene_to_dict, scene_to_toml

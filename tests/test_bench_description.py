@@ -430,7 +430,7 @@ def test_bench_init_from_files_names_them_beside_the_scene(tmp_path):
     from typer.testing import CliRunner
 
     from rths3d.cli import app
-    from rths3d.platform.calibration import CalibratedGeometry
+    from rths3d.platform.calibrate.kinematic import CalibratedGeometry
 
     (tmp_path / "cal").mkdir()
     (tmp_path / "scenes").mkdir()

@@ -18,7 +18,7 @@ import pytest
 from rths3d.bench import Bench, BenchReplay
 from rths3d.bench.base import platform_batch
 from rths3d.platform.backend import assemble
-from rths3d.platform.calibration import CalibratedGeometry
+from rths3d.platform.calibrate.kinematic import CalibratedGeometry
 from rths3d.platform.kinematics import forward_kinematics
 from rths3d.platform.model import PlatformConfig, build_spec
 from rths3d.record import DOFS

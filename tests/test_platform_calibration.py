@@ -21,7 +21,8 @@ from rths3d.cli import main
 from rths3d.errors import ConfigError
 from rths3d.platform import DEFAULT_GEOMETRY as G
 from rths3d.platform import ActuatorConfig, PlatformConfig, build_spec, check_workspace
-from rths3d.platform.calibration import (
+from rths3d.platform.calibrate.fts import FTSCalibration, PayloadEstimator, load_wrench
+from rths3d.platform.calibrate.kinematic import (
     CalibratedGeometry,
     KinematicCalibration,
     geometry_from_parameters,
@@ -32,8 +33,7 @@ from rths3d.platform.calibration import (
     parameter_names,
     parameter_vector,
 )
-from rths3d.platform.fts_calibration import FTSCalibration, PayloadEstimator, load_wrench
-from rths3d.platform.pose_design import select_poses
+from rths3d.platform.calibrate.poses import select_poses
 
 POSE_NOISE = (5e-6, 20e-6)  # pose measurement: 5 µm per translation, 20 µrad per angle
 ENCODER_NOISE = 1e-6  # leg encoders, m

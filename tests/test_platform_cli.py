@@ -46,7 +46,7 @@ def test_track_stop_and_bad_dof_exit_2_with_one_line(tmp_path, capsys):
 
 def test_identify_quick_writes_tf_and_bode(tmp_path, capsys):
     """`platform identify --quick --out` writes a loadable TF file and a Bode plot."""
-    from rths3d.platform.identify import load_heave_tf
+    from rths3d.platform.calibrate.heave import load_heave_tf
 
     path = tmp_path / "tf.json"
     code, out, _ = _run(["platform", "identify", "--quick", "--out", str(path)], capsys)
@@ -71,7 +71,7 @@ def test_info_reports_geometry_and_condition(capsys):
 def test_identify_out_folder_gets_default_name_and_plot_path_is_real(tmp_path, capsys):
     """`identify --out DIR/` (and an existing folder) writes DIR/platform_heave_tf.json, and
     `--plot NAME` without a suffix prints the PNG actually written (NAME.png)."""
-    from rths3d.platform.identify import DEFAULT_TF_PATH, load_heave_tf
+    from rths3d.platform.calibrate.heave import DEFAULT_TF_PATH, load_heave_tf
 
     new = tmp_path / "assets"
     code, out, err = _run(["platform", "identify", "--quick", "--out", f"{new}/"], capsys)
@@ -91,7 +91,7 @@ def test_tf_save_to_unwritable_path_is_config_error_without_temp_file(tmp_path):
     import numpy as np
 
     from rths3d.errors import ConfigError
-    from rths3d.platform.identify import HeaveTF, IdentifyResult
+    from rths3d.platform.calibrate.heave import HeaveTF, IdentifyResult
 
     f = np.array([0.5, 1.0, 2.0])
     res = IdentifyResult(HeaveTF((1.0,), (0.01, 1.0), 0.001), f, {"home": np.ones(3) + 0j},

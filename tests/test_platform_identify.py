@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from rths3d.errors import ConfigError
-from rths3d.platform.identify import (
+from rths3d.platform.calibrate.heave import (
     DEFAULT_TF_PATH,
     fit_transfer_function,
     heave_response,
@@ -106,7 +106,7 @@ def test_shipped_tf_file_is_valid():
 def test_phase_delay_is_unwrapped_and_continuous():
     """phase_delay keeps the phase continuous past ±π: a 4 ms delay reads 4 ms at 200 Hz, and
     the fitted TF's delay stays positive and smooth up to Nyquist (150 Hz: 3.37 ms)."""
-    from rths3d.platform.identify import HeaveTF
+    from rths3d.platform.calibrate.heave import HeaveTF
 
     assert HeaveTF((1.0,), (1.0,), 0.004).phase_delay(200.0) == pytest.approx(0.004, rel=1e-12)
     tf = HeaveTF((0.01675675345674155, 1.001559159783512),

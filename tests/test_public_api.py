@@ -66,8 +66,13 @@ MOVED = {
     "rths3d.scene_bench": ("rths3d.scene.bench", ("bench_scene_text", "bench_origin",
                                                   "controller_table", "platform_table")),
     "rths3d.scene_checks": ("rths3d.scene.checks", ("check_coupled_stability", "check_reach")),
-    "rths3d.platform.identify": ("rths3d.lti.identify", ("multisine", "fit_transfer_function")),
-    "rths3d.platform.fts_calibration": ("rths3d.platform.kinematics", ("skew",)),
+    "rths3d.platform.identify": ("rths3d.platform.calibrate.heave", (
+        "HeaveTF", "identify_heave", "load_heave_tf", "multisine", "fit_transfer_function")),
+    "rths3d.platform.fts_calibration": ("rths3d.platform.calibrate.fts", ("FTSCalibration",
+                                                                          "skew")),
+    "rths3d.platform.calibration": ("rths3d.platform.calibrate.kinematic", (
+        "KinematicCalibration", "CalibratedGeometry", "load_geometry")),
+    "rths3d.platform.pose_design": ("rths3d.platform.calibrate.poses", ("select_poses",)),
     "rths3d.rthsbench": ("rths3d.community", ("run_case", "BenchmarkConfig", "marths")),
     "rths3d.effects.blocks": ("rths3d.kernels", ("Block", "Chain", "run_chain", "run_blocks",
                                                  "padded_kernels", "njit", "inline_njit",
@@ -76,7 +81,9 @@ MOVED = {
 }
 
 
-WHOLE = ("rths3d.jit", "rths3d.scene_bench", "rths3d.scene_checks", "rths3d.rthsbench")
+WHOLE = ("rths3d.jit", "rths3d.scene_bench", "rths3d.scene_checks", "rths3d.rthsbench",
+         "rths3d.platform.identify", "rths3d.platform.fts_calibration",
+         "rths3d.platform.calibration", "rths3d.platform.pose_design")
 """Modules that moved as a whole: importing the old name warns."""
 
 
@@ -99,3 +106,15 @@ def test_moved_names_still_import_from_their_old_module(old):
     if old in WHOLE:
         assert any(issubclass(w.category, DeprecationWarning) and new.rsplit(".", 1)[0] in
                    str(w.message) for w in caught)
+
+
+def test_shared_helpers_have_one_home():
+    """The multisine and the transfer-function fit are rths3d.lti's, skew the kinematics';
+    the platform's calibration and identification use those very functions."""
+    from rths3d.lti import identify as lti_identify
+    from rths3d.platform import kinematics
+    from rths3d.platform.calibrate import fts, heave
+
+    assert heave.multisine is lti_identify.multisine
+    assert heave.fit_transfer_function is lti_identify.fit_transfer_function
+    assert fts.skew is kinematics.skew

@@ -36,7 +36,7 @@ from ..config import EffectConfig, ExperimentConfig, Scene
 from ..effects.base import REGISTRY, STAGES, Effect, get_effect
 from ..experiment import make_part
 from ..kernels import Block
-from ..platform.calibration import CalibratedGeometry
+from ..platform.calibrate.kinematic import CalibratedGeometry
 from ..platform.geometry import DEFAULT_GEOMETRY, StewartGeometry
 from ..platform.model import ActuatorConfig, PlatformConfig, build_spec
 
@@ -85,7 +85,7 @@ class Bench:
         The physical effects of the real bench (``[[effect]]`` tables of a scene).
     geometry:
         The true geometry when it is known as a whole (e.g. a
-        :class:`~rths3d.platform.calibration.CalibratedGeometry` from a calibration);
+        :class:`~rths3d.platform.calibrate.kinematic.CalibratedGeometry` from a calibration);
         ``None``: the nominal one. Geometry effects move it further.
     """
 

@@ -174,7 +174,7 @@ def identify(
     """Identify the heave frequency response (multisine 0.1–50 Hz at five poses) and fit a
     low-order transfer function with delay; write the TF JSON and a Bode plot."""
     from ..errors import ConfigError
-    from ..platform.identify import DEFAULT_TF_PATH, identify_heave
+    from ..platform.calibrate.heave import DEFAULT_TF_PATH, identify_heave
 
     if n_num < 0 or n_den < 1 or n_num > n_den:
         raise ConfigError("--n-num/--n-den", (n_num, n_den), "need 0 <= n_num <= n_den, n_den >= 1")
@@ -253,7 +253,7 @@ def calibrate(
                                            "… leg_len.5 (encoder lengths, m); a track "
                                            "record works too."),
     out: Path = typer.Option(None, "--out", help="Write the calibrated geometry here (.json; "
-                                                 "load with rths3d.platform.calibration."
+                                                 "load with rths3d.platform.calibrate.kinematic."
                                                  "load_geometry)."),
     nominal: Path = typer.Option(None, "--nominal", help="Nominal geometry (.json, as "
                                                          "written by --out); default: the "
@@ -272,8 +272,8 @@ def calibrate(
     """
     from ..errors import ConfigError
     from ..platform import DEFAULT_GEOMETRY
-    from ..platform.calibration import KinematicCalibration, load_geometry
-    from ..platform.pose_design import load_pose_table
+    from ..platform.calibrate.kinematic import KinematicCalibration, load_geometry
+    from ..platform.calibrate.poses import load_pose_table
     from ._app import json_line
 
     if out is not None:

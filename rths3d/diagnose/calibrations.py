@@ -28,7 +28,7 @@ class Calibrations:
     def _kinematic(self, base: Mapping[str, np.ndarray]) -> dict[str, float] | None:
         """Kinematic calibration (42 parameters) from the measured absolute poses and leg
         encoders of the training samples: the identified deviations as geometry effects."""
-        from ..platform.calibration import KinematicCalibration, parameter_names
+        from ..platform.calibrate.kinematic import KinematicCalibration, parameter_names
 
         need = [f"pose_meas.{d}" for d in DOFS] + [f"leg_len.{i}" for i in range(6)]
         if not all(c in self.measured for c in need):

@@ -1,7 +1,7 @@
 """Identifying an LTI model from a measured response: the excitation (a Schroeder multisine)
 and the fit of a transfer function with a transport delay to a frequency response.
 
-Used by the platform's heave identification (:mod:`rths3d.platform.identify`), the
+Used by the platform's heave identification (:mod:`rths3d.platform.calibrate.heave`), the
 inverse-model compensator's identification (:mod:`rths3d.compensation.inverse`) and the RTHS
 benchmark's calibration test (:mod:`rths3d.community.compensated`).
 """

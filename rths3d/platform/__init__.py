@@ -5,16 +5,17 @@ Pose convention: ``(x, y, z, rx, ry, rz)`` of the top plate relative to home, tr
 the world frame (m), rotations ``R = Rz(rz) @ Ry(ry) @ Rx(rx)`` (rad). See docs/platform.md.
 """
 
-from .calibration import (
+from .calibrate.fts import FTSCalibration, PayloadEstimator, load_wrench
+from .calibrate.heave import HeaveTF, identify_heave, load_heave_tf
+from .calibrate.kinematic import (
     CalibratedGeometry,
     IdentifiabilityReport,
     KinematicCalibration,
     identifiability,
     load_geometry,
 )
-from .fts_calibration import FTSCalibration, PayloadEstimator, load_wrench
+from .calibrate.poses import select_poses
 from .geometry import DEFAULT_GEOMETRY, StewartGeometry
-from .identify import HeaveTF, identify_heave, load_heave_tf
 from .kinematics import (
     ForwardKinematicsError,
     ScalarIK,
@@ -25,7 +26,6 @@ from .kinematics import (
     rotation_matrix,
 )
 from .model import ActuatorConfig, PlatformConfig, build_model, build_spec, predicted_delay
-from .pose_design import select_poses
 from .sim import PlatformBatch, StaticState
 from .single import PlatformSim
 from .tracking import TrackingFigures, sine_delay, sine_trajectory, track, tracking_figures

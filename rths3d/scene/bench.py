@@ -28,7 +28,7 @@ from ..config import (
     check_servo_number,
 )
 from ..errors import ConfigError
-from ..platform.calibration import CalibratedGeometry, load_geometry
+from ..platform.calibrate.kinematic import CalibratedGeometry, load_geometry
 from ..platform.geometry import DEFAULT_GEOMETRY, StewartGeometry
 from ..record import DOFS
 
