@@ -188,3 +188,17 @@ def test_rls_and_rodeac_compiled_equal_python_with_a_drift_stop(monkeypatch, com
     assert a[0].status == "ok" and f"{reason} ({ch}) outside its bounds" in a[1].reason
     col = "comp.theta0." + ("leg0" if where == "legs" else "z")
     assert np.ptp(a[0].record.columns[col]) > 1e-6  # θ adapted: the equality covers it
+
+
+@pytest.mark.parametrize("where", ["interface", "legs"])
+def test_lead_compiled_equals_python(monkeypatch, where):
+    """The fixed lead filter (the RTHS benchmark's G_T, direct form I) per interface DOF and
+    per leg in the compiled closed loop: the Python driver's record (its ``command`` runs
+    the same kernel)."""
+    sc = load_scene(SCENE, ["duration=0.6", "transfer.kind='stewart'", "transfer.delay=0.005",
+                            "transfer.compensation='lead'", f"transfer.compensate='{where}'"])
+    a, b = _both(monkeypatch, lambda: run_batch(sc, [{}, {"numerical.k": 5e3}],
+                                               reference=False))
+    for ra, rb in zip(a, b, strict=True):
+        _same(ra, rb)
+    assert all(r.status == "ok" for r in a)

@@ -62,3 +62,18 @@ def test_rls_and_rodeac_on_the_lti_path_compiled_equal_python_with_a_drift_stop(
         _same(ra, rb)
     assert a[0].status == "ok" and f"{reason} (channel 0) outside its bounds" in a[1].reason
     assert np.ptp(a[0].record.columns["comp.theta0.z"]) > 1e-6
+
+
+def test_lead_on_the_lti_path_compiled_equals_python(monkeypatch):
+    """The fixed lead filter in the 1-D compiled loop: the Python driver's record; the filter
+    acts (the command differs from the uncompensated test's)."""
+    sc = load_scene(SCENE, ["duration=1.0", "transfer.kind='lti'", "transfer.delay=0.005",
+                            "transfer.compensation='lead'"])
+    a, b = _both(monkeypatch, lambda: run_batch(sc, [{}, {"numerical.k": 5e3}],
+                                               reference=False))
+    for ra, rb in zip(a, b, strict=True):
+        _same(ra, rb)
+    plain = run_batch(load_scene(SCENE, ["duration=1.0", "transfer.kind='lti'",
+                                         "transfer.delay=0.005"]), [{}], reference=False)[0]
+    assert np.max(np.abs(a[0].record.columns["z_meas.z"] - plain.record.columns["z_meas.z"])
+                  ) > 1e-6

@@ -9,10 +9,16 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from ..errors import ConfigError
-from .base import BaseCompensator, CompensatorConfig, check, register
+from .base import (
+    BaseCompensator,
+    CompensatorConfig,
+    check,
+    comp_kernel,
+    comp_ready,
+    register,
+)
 
 
 @dataclass(frozen=True)
@@ -33,26 +39,26 @@ class LeadConfig(CompensatorConfig):
               "must be proper (deg den ≥ deg num, den ≠ 0)")
 
 
-@njit(cache=True, nogil=True)
-def _df1(b, a, xh, yh, z, u):
-    """Direct form I, y = Σ b_i x_{−i} − Σ_{i≥1} a_i y_{−i}, per channel (a[0] = 1)."""
-    K, n = z.shape
-    m = b.size - 1
-    for k in range(K):
-        for j in range(n):
-            x = z[k, j]
-            y = b[0] * x
-            for i in range(1, m + 1):
-                y = y + b[i] * xh[k, j, i - 1]
-            for i in range(1, m + 1):
-                y = y - a[i] * yh[k, j, i - 1]
-            for i in range(m - 1, 0, -1):
-                xh[k, j, i] = xh[k, j, i - 1]
-                yh[k, j, i] = yh[k, j, i - 1]
-            if m > 0:
-                xh[k, j, 0] = x
-                yh[k, j, 0] = y
-            u[k, j] = y
+@comp_kernel
+def lead_kernel(p, s, z, zd, zm, u):
+    """Direct form I per row, y = Σ b_i x_{−i} − Σ_{i≥1} a_i y_{−i} (a_0 = 1): ``p`` row
+    (b_0 … b_m, a_0 … a_m), ``s`` row (x_{−1} … x_{−m}, y_{−1} … y_{−m})."""
+    m = p.shape[1] // 2 - 1
+    for r in range(z.shape[0]):
+        x = z[r]
+        y = p[r, 0] * x
+        for i in range(1, m + 1):
+            y = y + p[r, i] * s[r, i - 1]
+        for i in range(1, m + 1):
+            y = y - p[r, m + 1 + i] * s[r, m + i - 1]
+        for i in range(m - 1, 0, -1):
+            s[r, i] = s[r, i - 1]
+            s[r, m + i] = s[r, m + i - 1]
+        if m > 0:
+            s[r, 0] = x
+            s[r, m] = y
+        u[r] = y
+    return False
 
 
 @register
@@ -76,18 +82,24 @@ class LeadCompensator(BaseCompensator):
         self.a = np.zeros(m)
         self.b[:len(de.b)] = de.b
         self.a[:len(de.a)] = de.a
-        self.xh = np.zeros((K, n, max(m - 1, 1)))
-        self.yh = np.zeros((K, n, max(m - 1, 1)))
+        comp_ready(lead_kernel)
+        # the coefficients per row and the delay lines (x then y), the kernel's own arrays
+        self._params = np.tile(np.concatenate([self.b, self.a]), (K * n, 1))
+        self._state = np.zeros((K * n, 2 * max(m - 1, 1)))
 
     def reset(self) -> None:
         super().reset()
-        self.xh[:] = 0.0
-        self.yh[:] = 0.0
+        self._state[:] = 0.0
 
     def command(self, z: np.ndarray, zdot: np.ndarray, z_meas: np.ndarray) -> np.ndarray:
-        _df1(self.b, self.a, self.xh, self.yh, z, self.u)
+        flat = self.u.reshape(-1)
+        lead_kernel(self._params, self._state, np.ascontiguousarray(z).reshape(-1), flat,
+                    flat, flat)
         self.calls += 1
         return self.u
+
+    def compiled(self):
+        return (lead_kernel,), self._params, self._state
 
     def dcgain(self) -> float:
         return float(np.sum(self.b) / np.sum(self.a))
