@@ -329,14 +329,15 @@ def run_marths(cfg: MarthsConfig | None = None, compensator: Any = "rodeac",
     comp_stop = np.zeros(K, dtype=bool)
     inv_dt = 1.0 / dt
     n_alive = K
-    Fi = np.zeros(3)
+    Fi, u6 = np.zeros(3), np.zeros(6)  # the kernels' scratch (force in, U at the logs)
     failed = ""
     for k in range(N):
         if numerical is None:
             n_alive -= kernels.measure(k, alive, stop_at, stop_val, Xp, Cp, U, V, A, R, Fv,
                                        nmN.Kinv, nmN.RU, nmN.RV, nmN.RA, nmN.Ml, nmN.a, ag,
                                        noise, kin, K5, C5, M5, G, qm, inv_dt,
-                                       cfg.stroke_limit, zt, zm, XAT, XAM, XH, NUM, FF)
+                                       cfg.stroke_limit, zt, zm, XAT, XAM, XH, NUM, FF,
+                                       Fi, u6)
         else:
             kernels.feedback(k, 0, Xp, Cp, noise, kin, K5, C5, M5, G, qm, inv_dt, zm, XH, FF,
                              Fi)
