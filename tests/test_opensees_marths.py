@@ -23,6 +23,7 @@ from rths3d.community.marths import NOMINAL, MarthsConfig, run_marths
 from rths3d.community.marths.data import data_dir
 from rths3d.community.marths.opensees_frame import OpenSeesFrame
 from rths3d.errors import ConfigError
+from rths3d.numerical.opensees import assembled_matrix
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = ROOT / "scenes" / "opensees" / "marths_frame.py"
@@ -39,16 +40,8 @@ def folder() -> Path:
 
 
 def _gimme(ops, m: float, c: float, k: float) -> np.ndarray:
-    ops.wipeAnalysis()
-    ops.constraints("Transformation")
-    ops.numberer("Plain")
-    ops.system("FullGeneral")
-    ops.algorithm("Linear")
-    ops.integrator("GimmeMCK", m, c, k)
-    ops.analysis("Transient")
-    ops.analyze(1, 0.0)
-    n = ops.systemSize()
-    A = np.array(ops.printA("-ret"), float).reshape(n, n)
+    """m·M + c·C + k·K of the 29 equations as OpenSees assembles them."""
+    A = assembled_matrix(ops, m, c, k)
     eq = [int(ops.nodeDOFs(e)[0]) for e in range(1, 30)]
     return A[np.ix_(eq, eq)]
 

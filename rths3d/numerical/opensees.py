@@ -201,6 +201,22 @@ def load_build(path: str, field: str = "numerical.model") -> Any:
     return build
 
 
+
+def assembled_matrix(ops, m: float, c: float, k: float) -> np.ndarray:
+    """m·M + c·C + k·K of the model ``ops`` holds, as OpenSees assembles it at rest
+    (``GimmeMCK``; equation numbering of the ``Plain`` numberer). Leaves an analysis
+    defined: wipe it before the next."""
+    ops.wipeAnalysis()
+    ops.constraints("Transformation")
+    ops.numberer("Plain")
+    ops.system("FullGeneral")
+    ops.algorithm("Linear")
+    ops.integrator("GimmeMCK", m, c, k)
+    ops.analysis("Transient")
+    ops.analyze(1, 0.0)
+    size = ops.systemSize()
+    return np.array(ops.printA("-ret"), float).reshape(size, size)
+
 class OpenSeesSubstructure:
     """One test's OpenSees model behind the :class:`~rths3d.numerical.NumericalSubstructure`
     protocol (see the module docstring). ``z``, ``zdot``, ``x`` (1, n_if): the interface
@@ -315,16 +331,7 @@ class OpenSeesSubstructure:
         mats = []
         eqs: list[int] = []
         for m, c, k in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)):
-            ops.wipeAnalysis()
-            ops.constraints("Transformation")
-            ops.numberer("Plain")
-            ops.system("FullGeneral")
-            ops.algorithm("Linear")
-            ops.integrator("GimmeMCK", m, c, k)
-            ops.analysis("Transient")
-            ops.analyze(1, 0.0)
-            size = ops.systemSize()
-            mats.append(np.array(ops.printA("-ret"), float).reshape(size, size))
+            mats.append(assembled_matrix(ops, m, c, k))
             if not eqs:
                 eqs = [int(ops.nodeDOFs(node)[dof - 1]) for node, dof in self.cfg.interface]
         ops.wipeAnalysis()
