@@ -181,10 +181,16 @@ GRAVITY = ("nominal", "measured", "none")
 """Sources of the gravity compensation: the nominal model, the bench's own holding forces at
 rest (measured), or none."""
 SERVO_RANGES = {"kp": (0.0, 1e9, "N/m"), "kv": (0.0, 1e7, "N·s/m"),
-                "timeconst": (0.0, 1.0, "s"), "delay": (0.0, 0.5, "s")}
+                "timeconst": (0.0, 1.0, "s"), "delay": (0.0, 0.5, "s"),
+                "valve_hz": (0.0, 1e4, "Hz"), "valve_damping": (0.0, 10.0, "1")}
 """The leg servo's numbers a scene's ``[controller]`` table states (kept in
 :class:`TransferConfig`, where their defaults are): (lower, upper limit, unit) each; ``kp``
-must exceed its lower limit, the others may equal it."""
+must exceed its lower limit, the others may equal it. ``valve_hz`` and ``valve_damping``:
+the servo-valve's second-order response after the hold, natural frequency (Hz; 0: none,
+today's bench) and damping ratio."""
+VALVE_KEYS = ("valve_hz", "valve_damping")
+"""The servo-valve's keys: written to a scene only when it has a valve (``valve_hz > 0``),
+so that a scene without one reads and writes as before."""
 SERVO_CONVENTIONS = {"hold": HOLD, "sample": SAMPLE, "feedforward": FEEDFORWARD,
                      "gravity": GRAVITY, "lag": LAG}
 """The ``[controller]`` conventions and their allowed values (defaults in
@@ -221,8 +227,8 @@ class ControllerConfig:
     ``lag``: where the servo's first-order lag ``timeconst`` sits (:data:`LAG`): a digital
     filter of the set-point before the hold (``setpoint``, today's) or continuous dynamics
     after it (``servo``, a valve or amplifier; integrated with the physics). The
-    servo's gains, lag and transport delay (``kp``, ``kv``, ``timeconst``, ``delay`` of
-    ``[controller]``) are kept in :class:`TransferConfig`
+    servo's gains, lag, transport delay and valve (``kp``, ``kv``, ``timeconst``, ``delay``,
+    ``valve_hz``, ``valve_damping`` of ``[controller]``) are kept in :class:`TransferConfig`
     (``transfer.kp`` …), where every consumer reads them. ``given``: the keys the scene's
     ``[controller]`` table set (``rths3d diagnose`` names them).
     """
@@ -325,6 +331,11 @@ class TransferConfig:
     velocity_ff: bool = True
     substeps: int = 1
     integrator: str = "RK4"
+    valve_hz: float = 0.0
+    """The servo-valve's natural frequency (Hz): a second-order response of the servo after
+    the hold, integrated with the physics (:mod:`rths3d.platform.model`); 0: none."""
+    valve_damping: float = 0.7
+    """The servo-valve's damping ratio (1), with ``valve_hz``."""
     compensator: tuple[tuple[str, Any], ...] = ()
     """The compensator's own parameters (the ``[transfer.compensator]`` table, sorted
     key–value pairs; see :mod:`rths3d.compensation`)."""

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+import scipy.linalg
 from scipy.spatial.transform import Rotation
 
 DOFS = ("x", "y", "z", "rx", "ry", "rz")
@@ -101,6 +102,12 @@ class ForeignBench:
     """The servo's continuous first-order lag after the hold (s): the slide is driven
     towards x, ẋ = (u − x)/τ of the held command u (a valve or amplifier), x an activation
     of the servo's own actuator integrated with the physics at the physics step; 0: none."""
+    valve_hz: float = 0.0
+    valve_damping: float = 0.7
+    """A servo-valve after the hold (Hz, damping ratio; 0 Hz: none): the servo's set-point is
+    the valve's output y, ÿ + 2ζωẏ + ω²y = ω²u of the held command u, advanced exactly over
+    each physics step (its transition matrix) and given to the servo as its mean over the
+    step."""
 
     def with_(self, **kw) -> ForeignBench:
         return replace(self, **kw)
@@ -208,10 +215,30 @@ class ForeignBench:
         # set-point is E − (true home length + encoder offset)
         shift = ctrl_home - true_home - enc_off
 
+        valve = None
+        if self.valve_hz > 0:
+            # the valve's state (y, ẏ, ∫y, u) per leg over one physics step, u held: its
+            # exact transition matrix; the servo gets the mean of y over the step
+            w, zeta, h = 2 * math.pi * self.valve_hz, self.valve_damping, self.physics_dt
+            A = np.array([[0.0, 1.0, 0.0, 0.0], [-w * w, -2 * zeta * w, 0.0, w * w],
+                          [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]])
+            valve = {"E": scipy.linalg.expm(A * h), "y": None, "yd": np.zeros(6), "h": h}
+
+        def physics_step(u: np.ndarray) -> None:
+            if valve is None:
+                data.ctrl[:6] = u
+            else:
+                if valve["y"] is None:  # at rest on the first command
+                    valve["y"] = np.array(u, dtype=float)
+                st = np.stack([valve["y"], valve["yd"], np.zeros(6), u])
+                st = valve["E"] @ st
+                valve["y"], valve["yd"] = st[0], st[1]
+                data.ctrl[:6] = st[2] / valve["h"]
+            mujoco.mj_step(model, data)
+
         def advance(seconds: float, ctrl: np.ndarray) -> None:
-            data.ctrl[:] = ctrl
             for _ in range(int(round(seconds / self.physics_dt))):
-                mujoco.mj_step(model, data)
+                physics_step(ctrl)
 
         # gravity compensation: let the bench settle on its servos, read the holding forces,
         # offset the set-points by force / kp, three times
@@ -252,6 +279,7 @@ class ForeignBench:
         lag = (shift + grav).copy() if np.any(tcs > 0) else None
         alpha = np.where(tcs > 0, 1.0 - np.exp(-self.dt / np.where(tcs > 0, tcs, 1.0)), 1.0)
         Lprev = ctrl_home.copy()
+        c_prev = shift + grav
         ffg = self.kv / self.kp / self.dt if self.velocity_ff else 0.0
         ends: list[int] = []
         contacts = 0
@@ -273,11 +301,9 @@ class ForeignBench:
             if self.hold == "zoh":
                 advance(self.dt, cd)
             else:  # a ramp from the previous set-point, one value per physics step
-                c0 = data.ctrl[:6].copy()
                 for j in range(1, nsub + 1):
-                    data.ctrl[:6] = c0 + (cd - c0) * (j - 0.5) / nsub
-                    mujoco.mj_step(model, data)
-                data.ctrl[:6] = cd
+                    physics_step(c_prev + (cd - c_prev) * (j - 0.5) / nsub)
+            c_prev = cd
             mujoco.mj_forward(model, data)
             contacts += data.ncon > 0
             if self.sample == "end":

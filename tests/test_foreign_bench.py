@@ -76,6 +76,8 @@ class Spec:
     files: dict = field(default_factory=dict)
     poses: dict = field(default_factory=dict)
     servo: dict = field(default_factory=lambda: {"kp": 2.0e5, "kv": 2.0e3})
+    bench: dict = field(default_factory=dict)
+    """How the foreign bench itself runs (its physics step …), beyond what the scene states."""
 
 
 def _rigid_xml(m, com, inertia):
@@ -153,8 +155,28 @@ def servo_bench() -> Spec:
                                    "lag": "servo"})
 
 
+VALVE = (55.0, 0.6)
+"""Hz, 1: bench E's servo-valve, its natural frequency and damping ratio."""
+VALVE_STEP = 1.0 / 32000
+"""s: bench E's physics step. Its valve output reaches the servo as one value per physics
+step, so the bench converges to the continuous valve at second order in that step: its
+null replays at 2.24 noise units with 0.25 ms, 1.12 with 62.5 µs, 1.03 with 31.25 µs
+(measured 2026-11-29, the model's replay unchanged)."""
+
+
+def valve_bench() -> Spec:
+    """Bench E (bench A): its servo acts through a servo-valve of 55 Hz and damping 0.6
+    after the zero-order hold, advanced exactly over each of the bench's physics steps
+    (tests/foreign_bench.py) — not the bench model's spool integrated by MuJoCo."""
+    s = rigid_bench()
+    return Spec("valve", s.base, s.top, s.home_height, s.masses, s.fts_height, s.part,
+                s.part_xml, servo={"kp": 2.0e5, "kv": 2.0e3, "valve_hz": VALVE[0],
+                                   "valve_damping": VALVE[1]},
+                bench={"physics_dt": VALVE_STEP})
+
+
 BENCHES = {"rigid": rigid_bench, "contact": contact_bench, "geometry": other_geometry_bench,
-           "servo": servo_bench}
+           "servo": servo_bench, "valve": valve_bench}
 
 
 # ---------------------------------------------------------------------------- the scene
@@ -223,8 +245,10 @@ def make_record(folder: Path, spec: Spec, *, duration: float = 2.5, seed: int = 
                       kp=spec.servo["kp"], kv=spec.servo["kv"], delay_samples=1,
                       servo_lag=(spec.servo.get("timeconst", 0.0)
                                  if spec.servo.get("lag") == "servo" else 0.0),
+                      valve_hz=spec.servo.get("valve_hz", 0.0),
+                      valve_damping=spec.servo.get("valve_damping", 0.7),
                       part_xml=spec.part_xml, world_xml=spec.world_xml)
-    fb = fb.with_(**truth)
+    fb = fb.with_(**{**spec.bench, **truth})
     poses = multisine(duration, DT, seed=seed, **spec.poses)
     noise = seed + 100 if noise_seed is None else noise_seed
     ch = fb.run(poses, seed=noise)
@@ -321,7 +345,7 @@ def _diagnose(folder: Path, spec: Spec, desc: dict, rec_path: Path, rounds: int 
 
 
 @pytest.mark.parametrize("name", [
-    "rigid", "servo", pytest.param("contact", marks=pytest.mark.slow),
+    "rigid", "servo", "valve", pytest.param("contact", marks=pytest.mark.slow),
     pytest.param("geometry", marks=[pytest.mark.slow, pytest.mark.skipif(
         not os.environ.get("RTHS3D_FULL_MATRIX"),
         reason="bench C's null runs with RTHS3D_FULL_MATRIX=1 (its geometry is checked in "
@@ -371,6 +395,9 @@ def _wrong(spec: Spec, error: str) -> tuple[dict, tuple[str, ...]]:
     if error == "timeconst":  # stated twice what the bench has
         d["controller"][error] = 2 * d["controller"][error]
         return d, (f"scene:transfer.{error}=",)
+    if error == "valve_hz":  # the valve's frequency stated 1.6 times what the bench has
+        d["controller"][error] = round(1.6 * d["controller"][error], 3)
+        return d, (f"scene:transfer.{error}=",)
     if error == "delay":
         # stated 1.5 times what the bench has (stated twice, one sample too many, it is
         # exactly confounded with sampling at the end: docs/diagnosis.md)
@@ -382,7 +409,7 @@ def _wrong(spec: Spec, error: str) -> tuple[dict, tuple[str, ...]]:
 WRONG = [("rigid", e) for e in ("hold", "sample", "mass", "com_height", "anchor")] + \
     [("contact", e) for e in ("hold", "sample", "anchor")] + \
     [("geometry", e) for e in ("hold", "sample", "mass", "com_height", "anchor")] + \
-    [("servo", e) for e in ("lag_place", "timeconst", "delay")]
+    [("servo", e) for e in ("lag_place", "timeconst", "delay")] + [("valve", "valve_hz")]
 
 
 def described_wrong_case(folder: Path, name: str, error: str, seed: int = 21) -> dict:
@@ -408,7 +435,8 @@ FULL = pytest.mark.skipif(
     reason="the rest of the foreign-bench figures (1–2 min each): RTHS3D_FULL_MATRIX=1 runs them "
            "here, examples/66_foreign_bench.py prints them all; the suite keeps the cases "
            "measured on 2026-11-27")
-MEASURED_WRONG = {("rigid", "hold"), ("rigid", "anchor"), ("servo", "lag_place")}
+MEASURED_WRONG = {("rigid", "hold"), ("rigid", "anchor"), ("servo", "lag_place"),
+                  ("valve", "valve_hz")}
 """Described-wrong cases the suite runs (the whole set passes with RTHS3D_FULL_MATRIX=1,
 measured 2026-11-27; docs/diagnosis.md)."""
 MEASURED_MATRIX = {"coulomb_friction.leg2"}
@@ -430,7 +458,7 @@ def test_described_wrong_is_found_and_fixed(tmp_path, name, error):
     if out["first"].startswith("scene:"):
         key = out["first"].removeprefix("scene:").split("=")[0]
         assert any(key in r["label"] for r in out["revisions"]), out
-        if name == "servo":  # no other statement is revised on the way to noise
+        if name in ("servo", "valve"):  # no other statement is revised on the way to noise
             assert [r["label"].split("=")[0] for r in out["revisions"]] == [key], out
 
 

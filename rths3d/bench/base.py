@@ -55,7 +55,8 @@ def platform_config(scene: Scene, substeps: int | None = None) -> PlatformConfig
                          gravity_comp=c.gravity != "none",
                          gravity_source="measured" if c.gravity == "measured" else "nominal",
                          hold=c.hold, sample=c.sample,
-                         feedforward=c.feedforward, lag=c.lag)
+                         feedforward=c.feedforward, lag=c.lag, valve_hz=t.valve_hz,
+                         valve_damping=t.valve_damping)
     return PlatformConfig(geometry=p.geometry if p.geometry is not None else DEFAULT_GEOMETRY,
                           actuator=act, dt=scene.dt,
                           substeps=t.substeps if substeps is None else substeps,

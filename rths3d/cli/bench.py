@@ -75,6 +75,11 @@ def init(
     lag: str = typer.Option(None, help="Where the timeconst lag sits: setpoint (a digital "
                                        "filter before the hold) | servo (continuous, after "
                                        "the hold)."),
+    valve_hz: float = typer.Option(None, "--valve-hz", help="Servo-valve natural frequency "
+                                   "(Hz): a second-order response after the hold; 0: "
+                                   "none."),
+    valve_damping: float = typer.Option(None, "--valve-damping",
+                                        help="Servo-valve damping ratio (default 0.7)."),
     mass: float = typer.Option(None, help="Rigid payload mass (kg; default 1)."),
     com: str = typer.Option(None, help="Payload centre of mass x,y,z from the FTS origin, "
                                        "sensor frame (m)."),
@@ -121,7 +126,8 @@ def init(
     ctl = {k: v for k, v in (("kp", kp), ("kv", kv), ("timeconst", timeconst),
                              ("delay", delay), ("hold", hold), ("sample", sample),
                              ("feedforward", feedforward), ("gravity", gravity),
-                             ("lag", lag))
+                             ("lag", lag), ("valve_hz", valve_hz),
+                             ("valve_damping", valve_damping))
            if v is not None}
     dof_list = tuple(d.strip() for d in dofs.split(",") if d.strip())
     if part_file is not None:

@@ -172,7 +172,15 @@ def _scale_kp(spec: Any, i: int, change: Callable[[float], float]) -> None:
     """Leg i's position gain kp → change(kp), from the gain the spec has now, so that several
     gain effects (a leg's own and the platform's compliance) combine in any order. With the
     servo's lag after the hold (the ``leg{i}_lag`` actuator, force −kp·τ·f: the gain acts on
-    the lagged set-point) its gain is scaled alike."""
+    the lagged set-point) its gain is scaled alike; with a servo-valve (``leg{i}_valve``,
+    force −kp·(s − y)) the valve's stiffness is the gain."""
+    valve = spec.actuator(f"leg{i}_valve")
+    if valve is not None:  # a servo-valve: the servo's stiffness acts on the valve's output
+        bias = np.array(valve.biasprm)
+        kp0 = -float(bias[1])
+        bias[1] = -change(kp0)
+        valve.biasprm = bias
+        return
     act = spec.actuator(f"leg{i}")
     gain = np.array(act.gainprm)
     bias = np.array(act.biasprm)

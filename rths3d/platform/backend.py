@@ -53,6 +53,17 @@ class _Ids:
         self.lag_act = np.array([model.actuator(f"leg{i}_lag").id for i in range(6)
                                  if f"leg{i}_lag" in names], dtype=np.int64)
         """The servo-lag actuators (``lag = "servo"``), empty without."""
+        valve = "leg0_valve" in names
+        self.valve_act = np.array([model.actuator(f"leg{i}_valve").id for i in range(6)]
+                                  if valve else [], dtype=np.int64)
+        """The servo-valve's stiffness actuators (``valve_hz`` > 0), empty without."""
+        self.spool_qpos = np.array([model.jnt_qposadr[model.joint(f"leg{i}_spool").id]
+                                    for i in range(6)] if valve else [], dtype=np.int64)
+        """The valve spools' positions (scaled, :data:`~.model.SPOOL_SCALE`), empty
+        without."""
+        self.slide_total_force = bool(self.lag_act.size or valve)
+        """Whether a leg's force is every actuator's on its slide (a servo lag or a valve
+        after the hold), not the ``leg{i}`` actuator's alone."""
         free = model.joint("plate_free").id
         self.plate_qpos = int(model.jnt_qposadr[free])
         self.plate_dof = int(model.jnt_dofadr[free])
@@ -132,6 +143,16 @@ def assemble(model, data, slides: np.ndarray, ids: _Ids | None = None, *,
     mujoco.mj_kinematics(model, data)
 
 
+def servo_gains(model, ids: _Ids | None = None) -> np.ndarray:
+    """The six leg servos' position gains kp (N/m) of a compiled model (per model: a batch
+    may expand them, an effect may change them): the ``leg{i}`` actuators' gain, or with a
+    servo-valve the stiffness of its ``leg{i}_valve`` actuators."""
+    ids = ids or _Ids(model)
+    if ids.valve_act.size:
+        return -model.actuator_biasprm[ids.valve_act, 1]
+    return model.actuator_gainprm[ids.act, 0]
+
+
 def static_state(config: PlatformConfig, model, data, ids: _Ids | None = None) -> StaticState:
     """Solve the static equilibrium of the closed chain at the current (home) configuration.
 
@@ -164,7 +185,7 @@ def static_state(config: PlatformConfig, model, data, ids: _Ids | None = None) -
     fw = np.array([0.0, 0.0, mass * g])
     r = data.subtree_com[ids.fts_body] - data.site_xpos[ids.fts_site]
     pre = np.concatenate([fw, np.cross(r, fw)])
-    kp = model.actuator_gainprm[ids.act, 0]  # per-model gains (a batch may expand them)
+    kp = servo_gains(model, ids)
     return StaticState(leg_forces=f, offsets=f / kp, preload=pre, payload_mass=mass)
 
 

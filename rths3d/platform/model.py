@@ -27,6 +27,18 @@ Structure (stable names for consumers):
   same control (ḟ = (ṙ − f)/τ), so this actuator adds the force ``−kp·τ·f`` on the same
   slide: ``kp·(x − s) − kv·ṡ`` in total, integrated with the physics. The leg-force sensors
   ``leg{i}_force`` then read the total actuator force on the slide.
+* With a servo-valve (``valve_hz`` > 0): the servo acts on the valve's output y, the
+  second-order response ÿ + 2ζω ẏ + ω² y = ω² r of the held set-point r = ``act``
+  (ω = 2π·``valve_hz``, ζ = ``valve_damping``), integrated with the physics. y is the
+  position of a spool, ``leg{i}_spool`` (a slide along world x, no geoms, no gravity along
+  it), in the scaled coordinate Y = y/ε (ε = :data:`SPOOL_SCALE`): ``leg{i}`` (the
+  set-point integrator) drives it as a mass–spring–damper of natural frequency ω and damping
+  ζ towards r/ε, and the servo's force ``kp·(y − s)`` is the actuator ``leg{i}_valve`` on
+  the fixed tendon ``leg{i}_valve`` (length s − ε·Y), with the damping ``−kv·ṡ`` as the
+  actuator ``leg{i}_damping`` on the slide. The tendon pushes back on the spool by ε times
+  the servo's force: over the spool's mass and the scale that moves y by
+  kp·ε²/(m ω²) of (s − y), 2e-9 of it (1e-12 m) for a 50 Hz valve, so y is the valve's
+  response. The leg-force sensors read the total actuator force on the slide.
 """
 
 from __future__ import annotations
@@ -48,7 +60,15 @@ from ..config import (
 from ..errors import ConfigError
 from .geometry import DEFAULT_GEOMETRY, StewartGeometry
 
+SPOOL_SCALE = 1e-4
+"""ε: the valve spool's coordinate is its output y over ε (module docstring)."""
+SPOOL_MASS = 1.0
+"""The valve spool's mass in its scaled coordinate (kg): of the order of the legs' masses,
+so that the solver's mean inertia is the bench's."""
+
 __all__ = [
+    "SPOOL_MASS",
+    "SPOOL_SCALE",
     "ActuatorConfig",
     "PlatformConfig",
     "build_model",
@@ -115,6 +135,11 @@ class ActuatorConfig:
         (the servo's continuous dynamics after the hold, a valve or amplifier: MuJoCo
         actuator dynamics integrated with the physics at the physics step; the model's
         ``leg{i}_lag`` actuators).
+    valve_hz, valve_damping:
+        A servo-valve's second-order response after the hold, natural frequency (Hz) and
+        damping ratio (1), integrated with the physics (module docstring); ``valve_hz`` 0
+        (the default): none. Not with ``lag = "servo"`` (state one continuous servo
+        dynamics).
     """
 
     kp: float = TransferConfig.kp
@@ -131,6 +156,8 @@ class ActuatorConfig:
     sample: str = ControllerConfig.sample
     feedforward: str = ControllerConfig.feedforward
     lag: str = ControllerConfig.lag
+    valve_hz: float = TransferConfig.valve_hz
+    valve_damping: float = TransferConfig.valve_damping
 
     def __post_init__(self) -> None:
         for name, allowed in (*SERVO_CONVENTIONS.items(),
@@ -141,6 +168,12 @@ class ActuatorConfig:
             _check(f"controller.{name}", v, v in allowed, "one of " + " | ".join(allowed))
         for name in SERVO_RANGES:  # one home: rths3d.config
             check_servo_number(f"actuator.{name}", name, getattr(self, name))
+        if self.valve_hz > 0 and self.servo_lag > 0:
+            raise ConfigError("controller.valve_hz", self.valve_hz, "", message=(
+                f"controller.valve_hz: {self.valve_hz:g} Hz with lag = 'servo' (timeconst "
+                f"{self.timeconst:g} s): state the servo's continuous dynamics as one, the "
+                "valve or the lag after the hold (lag = 'setpoint' keeps the set-point "
+                "filter)"))
         for name, unit in (("stroke", "m"), ("velocity_limit", "m/s"), ("force_limit", "N")):
             v = getattr(self, name)
             if v is not None:
@@ -155,6 +188,13 @@ class ActuatorConfig:
     def setpoint_lag(self) -> float:
         """The time constant (s) of the digital set-point lag before the hold (0: none)."""
         return self.timeconst if self.lag == "setpoint" else 0.0
+
+    @property
+    def valve(self) -> tuple[float, float] | None:
+        """(ω rad/s, ζ) of the servo-valve after the hold, or None without one."""
+        if self.valve_hz <= 0:
+            return None
+        return 2 * math.pi * self.valve_hz, self.valve_damping
 
 
 @dataclass(frozen=True)
@@ -244,6 +284,17 @@ class PlatformConfig:
                 f"{tau:g} s after the hold with {self.integrator} (physics step / "
                 f"timeconst = {self.timestep / tau:.3g} must be <= {top:g}): use "
                 f"substeps >= {need}"))
+        valve = self.actuator.valve
+        # the spool is integrated explicitly with the physics: |λ·h| = ω·h for ζ <= 1
+        lam = 0.0 if valve is None else valve[0] * max(
+            1.0, valve[1] + math.sqrt(max(valve[1] ** 2 - 1.0, 0.0))) * self.timestep
+        if lam > top:
+            need = int(math.ceil(lam / top * self.substeps))
+            raise ConfigError("platform.substeps", self.substeps, "", message=(
+                f"platform.substeps: {self.substeps} is too few for a servo-valve of "
+                f"{self.actuator.valve_hz:g} Hz (damping {self.actuator.valve_damping:g}) with "
+                f"{self.integrator} (its fastest rate × physics step = {lam:.3g} must be <= "
+                f"{top:g}): use substeps >= {need}"))
         if self.fts_pose:
             fp = tuple(float(v) for v in self.fts_pose)
             _check("platform.fts_pose", list(self.fts_pose),
@@ -328,6 +379,9 @@ def predicted_delay(config: PlatformConfig, frequency: float = 1.0,
         H *= al / (1.0 - (1.0 - al) * zinv)
     if a.servo_lag > 0:  # continuous, after the hold
         H /= complex(1.0, w * a.servo_lag)
+    if a.valve is not None:  # the servo-valve, continuous after the hold
+        wn, zeta = a.valve
+        H *= wn * wn / complex(wn * wn - w * w, 2 * zeta * wn * w)
     if a.delay > 0:
         steps = a.delay / T
         d0 = math.floor(steps + 1e-12)
@@ -445,10 +499,39 @@ def model_xml(config: PlatformConfig, payload_xml: str | None = None,
     # the set-point ramps linearly between interface samples (a first-order hold) instead of
     # jumping at each sample, so the sampled forces do not depend on the sampling instant.
     # force = kp·(act − q) − kv·q̇ (the position actuator's law with act as its set-point).
-    acts = "\n".join(
-        f'    <general name="leg{i}" joint="leg{i}_slide" dyntype="integrator" '
-        f'gaintype="fixed" gainprm="{a.kp:.12g}" biastype="affine" '
-        f'biasprm="0 {-a.kp:.12g} {-a.kv:.12g}"/>' for i in range(6))
+    valve = a.valve
+    spools = tendons = ""
+    if valve is None:
+        acts = "\n".join(
+            f'    <general name="leg{i}" joint="leg{i}_slide" dyntype="integrator" '
+            f'gaintype="fixed" gainprm="{a.kp:.12g}" biastype="affine" '
+            f'biasprm="0 {-a.kp:.12g} {-a.kv:.12g}"/>' for i in range(6))
+    else:
+        # the servo-valve (module docstring): the set-point integrator drives the spool
+        # (Y = y/ε) towards act/ε as a mass-spring-damper of frequency ω and damping ζ; the
+        # servo's stiffness acts through the tendon s − ε·Y, its damping on the slide
+        wn, zeta = valve
+        eps, ms = SPOOL_SCALE, SPOOL_MASS
+        k_s, c_s = ms * wn * wn, 2 * zeta * wn * ms
+        spools = "".join(
+            f'    <body name="leg{i}_spool" pos="0 0 {-1 - 0.1 * i:.12g}">\n'
+            f'      <joint name="leg{i}_spool" type="slide" axis="1 0 0"/>\n'
+            f'      <inertial pos="0 0 0" mass="{ms:.12g}" diaginertia="1 1 1"/>\n'
+            f'    </body>\n' for i in range(6))
+        tendons = "  <tendon>\n" + "\n".join(
+            f'    <fixed name="leg{i}_valve"><joint joint="leg{i}_slide" coef="1"/>'
+            f'<joint joint="leg{i}_spool" coef="{-eps:.12g}"/></fixed>' for i in range(6)) \
+            + "\n  </tendon>\n"
+        acts = "\n".join(
+            f'    <general name="leg{i}" joint="leg{i}_spool" dyntype="integrator" '
+            f'gaintype="fixed" gainprm="{k_s / eps:.12g}" biastype="affine" '
+            f'biasprm="0 {-k_s:.12g} {-c_s:.12g}"/>' for i in range(6))
+        acts += "\n" + "\n".join(
+            f'    <general name="leg{i}_valve" tendon="leg{i}_valve" gaintype="fixed" '
+            f'gainprm="0" biastype="affine" biasprm="0 {-a.kp:.12g} 0"/>' for i in range(6))
+        acts += "\n" + "\n".join(
+            f'    <general name="leg{i}_damping" joint="leg{i}_slide" gaintype="fixed" '
+            f'gainprm="0" biastype="affine" biasprm="0 0 {-a.kv:.12g}"/>' for i in range(6))
     tau = a.servo_lag
     if tau > 0:
         # the servo's continuous lag after the hold (module docstring): the lagged set-point
@@ -480,7 +563,7 @@ def model_xml(config: PlatformConfig, payload_xml: str | None = None,
     # read a step's end-of-step sample at the start of the next (rths3d.platform.sim)
     legsens = "\n".join(f'    <actuatorfrc name="leg{i}_force" actuator="leg{i}"/>'
                          for i in range(6))
-    if tau > 0:  # the leg's force is both actuators' on its slide
+    if tau > 0 or valve is not None:  # the leg's force: every actuator's on its slide
         legsens = "\n".join(f'    <jointactuatorfrc name="leg{i}_force" joint="leg{i}_slide"/>'
                              for i in range(6))
     return f"""<mujoco model="rths3d_stewart">
@@ -518,11 +601,11 @@ def model_xml(config: PlatformConfig, payload_xml: str | None = None,
       </body>
     </body>
 {world_xml or ""}
-  </worldbody>
+{spools}  </worldbody>
   <equality>
 {eqs}
   </equality>
-  <actuator>
+{tendons}  <actuator>
 {acts}
   </actuator>
   <sensor>

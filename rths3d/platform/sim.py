@@ -56,7 +56,7 @@ from .kernels import (
     take_sample,
     world_wrench,
 )
-from .model import PlatformConfig, build_model
+from .model import SPOOL_SCALE, PlatformConfig, build_model
 
 __all__ = ["PlatformBatch", "StaticState", "interface_command", "plate_pose", "rotation",
            "static_state"]
@@ -211,9 +211,10 @@ class PlatformBatch:
         self._qvel = self.batch.bind("qvel")
         self._sensor = self.batch.bind("sensordata")
         # the leg force: the servo's actuator, or with a servo lag after the hold
-        # (leg{i}_lag actuators) both actuators' force on the slide
-        self._servo_lag = ids_lag = ids.lag_act.size > 0
-        self._force = self.batch.bind("qfrc_actuator" if ids_lag else "actuator_force")
+        # (leg{i}_lag actuators) or a valve, every actuator's force on the slide
+        self._servo_lag = ids.lag_act.size > 0
+        total = ids.slide_total_force
+        self._force = self.batch.bind("qfrc_actuator" if total else "actuator_force")
         self._xmat = self.batch.bind("site_xmat")
         self._a0 = int(ids.act[0])
         self._s0 = int(self.model.actuator_actadr[ids.act[0]])
@@ -223,7 +224,7 @@ class PlatformBatch:
         self._v_slice = slice(int(ids.slide_dof[0]), int(ids.slide_dof[-1]) + 1, vs)
         self.live_legs_q = self._qpos[:, self._q_slice]
         self.live_legs_v = self._qvel[:, self._v_slice]
-        self.live_legs_f = self._force[:, self._v_slice] if self._servo_lag else \
+        self.live_legs_f = self._force[:, self._v_slice] if total else \
             self._force[:, self._a0:self._a0 + 6]
         pa = ids.plate_qpos
         self.live_qpos = self._qpos[:, pa:pa + 7]
@@ -397,6 +398,8 @@ class PlatformBatch:
                 assemble(mk, d, rest, self.ids)
             d.ctrl[self.ids.act] = 0.0
             d.act[mk.actuator_actadr[self.ids.act]] = c0
+            if self.ids.spool_qpos.size:  # the valve at rest: its output is the set-point
+                d.qpos[self.ids.spool_qpos] = c0 / SPOOL_SCALE
             mujoco.mj_forward(mk, d)
             for name in ("qpos", "qvel", "act", "ctrl", "history"):
                 arr = getattr(d, name)

@@ -218,6 +218,12 @@ def controller_table(sec: Any, transfer: dict[str, Any]) -> ControllerConfig:
                 raise ConfigError(f"controller.{key}", v, "must be one of "
                                   + " | ".join(allowed))
             kw[key] = v
+    if transfer.get("valve_hz", 0.0) > 0 and kw.get("lag") == "servo" and \
+            transfer.get("timeconst", 0.0) > 0:
+        raise ConfigError("controller.valve_hz", transfer["valve_hz"], "", message=(
+            f"controller.valve_hz: {transfer['valve_hz']!r} Hz with lag = 'servo': state the "
+            "servo's continuous dynamics after the hold as one, the valve or the lag "
+            "(lag = 'setpoint' keeps the set-point filter)"))
     vff = transfer.get("velocity_ff", True)
     if vff is False:
         if kw.get("feedforward", "none") != "none":
@@ -320,7 +326,9 @@ def bench_scene_text(name: str, *, dofs: tuple[str, ...] = ("x", "y", "z", "rx",
           "# hold ramp|zoh, sample end|start, feedforward backward|central|none, gravity "
           "nominal|measured|none,",
           "# lag setpoint|servo (the timeconst lag: a set-point filter before the hold, or the",
-          "# servo's continuous dynamics after it)",
+          "# servo's continuous dynamics after it); valve_hz Hz and valve_damping: a "
+          "servo-valve's",
+          "# second-order response after the hold (0 Hz: none)",
           "[controller]"]
     L += [f"{k} = {_toml(v)}" for k, v in (controller or {}).items()]
     L += ["", "[transfer]", 'kind = "stewart"', ""]
@@ -359,7 +367,9 @@ def bench_origin(scene: Any, source: str) -> list[str]:
         f"  controller: {conv} ("
         + (", ".join(ctl_given) + " from the scene's [controller]" if ctl_given else
            "conventions today's default") + f"); kp = {t.kp:g} N/m, kv = {t.kv:g} N·s/m, "
-        f"timeconst = {t.timeconst:g} s, delay = {t.delay:g} s",
+        f"timeconst = {t.timeconst:g} s, delay = {t.delay:g} s"
+        + (f", servo-valve {t.valve_hz:g} Hz, damping {t.valve_damping:g}" if t.valve_hz
+           else ""),
         f"  part: {what}; effects: "
         + (", ".join(e.label for e in scene.effects) if scene.effects else "none"),
     ]

@@ -10,7 +10,7 @@ from dataclasses import asdict, replace
 from typing import Any
 
 from ..compensation import COMPENSATORS
-from ..config import EXPERIMENT_EXTRA, NetworkConfig, Scene
+from ..config import EXPERIMENT_EXTRA, VALVE_KEYS, NetworkConfig, Scene
 from ..numerical import numerical_class
 from .bench import controller_dict, platform_dict
 from .checks import check_coupled_stability
@@ -56,6 +56,9 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
         out[sec] = {k: (list(v) if isinstance(v, tuple) else v)
                     for k, v in _section_items(getattr(scene, sec))
                     if not (sec == "experiment" and k in EXPERIMENT_EXTRA and not v)}
+    if not scene.transfer.valve_hz:  # no valve: the table reads and writes as before
+        for k in VALVE_KEYS:
+            out["transfer"].pop(k, None)
     if "inertia_tensor" in out["experiment"]:
         out["experiment"]["inertia"] = out["experiment"].pop("inertia_tensor")
     net = {k: (list(map(list, v)) if k == "element_map" else v)

@@ -128,7 +128,9 @@ class StewartTransfer:
             return {"predicted_delay": predicted_delay(b.platform, 1.0), "kp": t.kp,
                     "kv": t.kv, "timeconst": t.timeconst, "actuator_delay": t.delay,
                     "velocity_ff": t.velocity_ff, "substeps": t.substeps,
-                    "integrator": b.platform.integrator, "bench": b.label()}
+                    "integrator": b.platform.integrator, "bench": b.label(),
+                    **({"valve_hz": t.valve_hz, "valve_damping": t.valve_damping}
+                       if t.valve_hz else {})}
 
         self.metas = [meta_of(s, b) for s, b in zip(self.scenes, self.benches, strict=True)]
         """Per-test metadata (leg-servo settings, the delay they predict, the effects)."""
@@ -158,7 +160,9 @@ class StewartTransfer:
         # a servo lag after the hold adds actuators to the model (rths3d.platform.model)
         servo_lag = s.get("controller.lag", ControllerConfig.lag) == "servo" and \
             setting(s, "transfer.timeconst", 0.0) > 0
-        return (compensator_key(s), setting(s, "transfer.substeps", 1), servo_lag,
+        # and so does a servo-valve
+        valve = setting(s, "transfer.valve_hz", 0.0) > 0
+        return (compensator_key(s), setting(s, "transfer.substeps", 1), servo_lag, valve,
                 s.get("transfer.integrator", "RK4"),
                 part_class(s.get("experiment.kind", "contact")).batch_key(s), sensor_key(s),
                 tuple(effects))

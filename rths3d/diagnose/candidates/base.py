@@ -40,7 +40,8 @@ class Revision:
     significant only if each change exceeds 1.96 of them); ``detail``: report lines (e.g. the
     payload identification's condition number and what it cannot see); ``refine``: a
     numeric revision without an estimate (a step from the statement): the screening refines
-    it along the line from the statement, as one with ``std``."""
+    it along the line from the statement, as one with ``std``; ``reciprocal``: that line runs
+    in 1/value (a frequency, whose effect on the record goes as its period)."""
 
     label: str
     changes: Mapping[str, Any]
@@ -48,6 +49,7 @@ class Revision:
     std: Mapping[str, float] = field(default_factory=dict)
     detail: tuple[str, ...] = ()
     refine: bool = False
+    reciprocal: bool = False
 
     def along(self, scene: Scene, alpha: float) -> Revision | None:
         """The revision moved to ``stated + alpha·(revised − stated)`` on every key (numbers
@@ -63,7 +65,14 @@ class Revision:
                     return None
             except (TypeError, ValueError):
                 return None
-            v = a + alpha * (b - a)
+            if self.reciprocal:
+                if not (np.all(a > 0) and np.all(b > 0)):
+                    return None
+                v = 1.0 / (1.0 / a + alpha * (1.0 / b - 1.0 / a))
+                if not np.all(v > 0):
+                    return None
+            else:
+                v = a + alpha * (b - a)
             changes[key] = round(float(v), 6) if v.ndim == 0 else [round(float(x), 7)
                                                                     for x in v]
         label = self.label
@@ -71,7 +80,8 @@ class Revision:
             (key, v), = changes.items()
             label = f"{key}=" + (f"{v:g}" if isinstance(v, float) else
                                  "[" + ", ".join(f"{x:g}" for x in v) + "]")
-        return Revision(label, changes, self.k, dict(self.std), self.detail, self.refine)
+        return Revision(label, changes, self.k, dict(self.std), self.detail, self.refine,
+                        self.reciprocal)
 
     def excludes_current(self, scene: Scene) -> bool:
         """Whether every numeric change is larger than 1.96 of its standard deviation."""

@@ -1,7 +1,9 @@
 """The leg servo's dynamics as description candidates: where its first-order lag sits
 (``controller.lag``: a set-point filter before the hold, or the servo's continuous dynamics
-after it), the lag's time constant and the transport delay, each revised in BOTH directions
-from what the scene states, one revision each (k = 1).
+after it), the lag's time constant, the transport delay and a stated servo-valve's
+frequency, each revised in BOTH directions from what the scene states, one revision each
+(k = 1). A valve the scene does not state is not screened: its frequency has no neutral
+value to step from (state it: ``rths3d bench init --valve-hz``).
 
 A description that overstates a lag or a delay is then corrected (the revision down), not
 papered over by gains and added effects, which can only add lag (``actuator_lag``,
@@ -31,7 +33,8 @@ def _steps(stated: float, floor: float) -> list[float]:
 
 @register_description
 class ServoDynamics:
-    """The lag's place, the lag's value and the delay's value, each revised both ways."""
+    """The lag's place, the lag's value, the delay's value and a stated valve's frequency,
+    each revised both ways."""
 
     name: ClassVar[str] = "servo"
 
@@ -53,4 +56,9 @@ class ServoDynamics:
         for v in _steps(delay, 0.5 * dt):
             out.append(Revision(f"transfer.delay={v:g}", {"transfer.delay": v}, 1,
                                 refine=True))
+        hz = float(current(scene, "transfer.valve_hz") or 0.0)
+        if hz > 0:  # a stated servo-valve: its frequency, both ways (two thirds, 1.5 times)
+            for v in (round(hz / 1.5, 3), round(hz * 1.5, 3)):
+                out.append(Revision(f"transfer.valve_hz={v:g}", {"transfer.valve_hz": v}, 1,
+                                    refine=True, reciprocal=True))
         return out
