@@ -14,8 +14,13 @@ same role. Keep its bandwidth well below 1/(the loop's delay): the feedback acts
 whole transfer system.
 
 Drift safety: |u_fb| above ``fb_limit`` (the feedback doing more than a correction: integral
-wind-up, a plant far from its model) or an oscillating command stops the test. Coefficients
-reported: ``u_fb`` (the current feedback correction, channel units).
+wind-up, a plant far from its model) or an oscillating command stops the test; from the next
+call on its command holds. Coefficients reported: ``u_fb`` (the current feedback correction,
+channel units).
+
+The whole step is one compiled kernel (:func:`model_based_kernel`: the inverse's
+:func:`~.inverse.inverse_row`, then the feedback, the limit and the watch per channel), run
+by the compiled loops and by :meth:`ModelBasedCompensator.command` alike.
 """
 
 from __future__ import annotations
