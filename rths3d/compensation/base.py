@@ -286,7 +286,7 @@ class WatchConfig(CompensatorConfig):
         check(f"{name}.osc_hold", self.osc_hold, self.osc_hold >= 0.0, "must be ≥ 0 s")
 
     def watch_params(self, dt: float) -> np.ndarray:
-        """``[α, ratio, floor, dt, hold]`` for :func:`watch_step` (ratio inf → 1e300)."""
+        """``[α, ratio, floor, dt, hold]`` for :func:`watch_row` (ratio inf → 1e300)."""
         ratio = self.osc_ratio if math.isfinite(self.osc_ratio) else 1e300
         return np.array([-math.expm1(-dt / self.osc_time), ratio, self.osc_floor, dt,
                          self.osc_hold])
@@ -295,55 +295,17 @@ class WatchConfig(CompensatorConfig):
 # ---------------------------------------------------------------------------------------
 # numba kernels shared by the compensators
 
-@njit(cache=True, nogil=True)
-def sos_step(sos: np.ndarray, zi: np.ndarray, x: float) -> float:
-    """One sample through second-order sections ``sos`` (S, 6) (transposed direct form II;
-    state ``zi`` (S, 2), updated in place)."""
-    y = x
-    for s in range(sos.shape[0]):
-        b0, b1, b2, a1, a2 = sos[s, 0], sos[s, 1], sos[s, 2], sos[s, 4], sos[s, 5]
-        out = b0 * y + zi[s, 0]
-        zi[s, 0] = b1 * y - a1 * out + zi[s, 1]
-        zi[s, 1] = b2 * y - a2 * out
-        y = out
-    return y
-
-
 WATCH_STATES = 6
 """Per-channel state of the oscillation watch: the high-pass section of u (2), the running
 mean of z, the mean square of z about it, the mean square of u_hp, the time over the limit."""
 
 
-@njit(cache=True, nogil=True)
-def watch_step(hp: np.ndarray, w: np.ndarray, u: float, z: float, wp: np.ndarray
-               ) -> tuple[bool, float, float]:
-    """Oscillation watch for one channel: ``hp`` (1, 6) high-pass section, ``w`` (6,) state,
-    ``wp`` = [α, ratio, floor, dt, hold] (:meth:`WatchConfig.watch_params`).
-    The command oscillates when the running RMS of its high-passed part has exceeded
-    ``ratio`` × the running RMS of the desired motion about its mean, plus ``floor``, for
-    longer than ``hold`` (s). Returns (oscillating, rms of u_hp, limit)."""
-    alpha, ratio, floor, dt, hold = wp[0], wp[1], wp[2], wp[3], wp[4]
-    yu = hp[0, 0] * u + w[0]
-    w[0] = hp[0, 1] * u - hp[0, 4] * yu + w[1]
-    w[1] = hp[0, 2] * u - hp[0, 5] * yu
-    w[2] += alpha * (z - w[2])
-    dz = z - w[2]
-    w[3] += alpha * (dz * dz - w[3])
-    w[4] += alpha * (yu * yu - w[4])
-    ru = math.sqrt(w[4])
-    lim = ratio * math.sqrt(w[3]) + floor
-    if ru > lim:
-        w[5] += dt
-    else:
-        w[5] = 0.0
-    return w[5] > hold, ru, lim
-
-
 @njit(cache=True, nogil=True, inline="always")
 def sos_row(p, po, nsec, s, so, x):
-    """:func:`sos_step` for the kernels of :data:`COMP_SIG`: ``nsec`` sections stored in the
-    parameter row ``p`` from column ``po`` (6 each), their state in the state row ``s`` from
-    column ``so`` (2 each); the same operations."""
+    """One sample ``x`` through second-order sections (transposed direct form II), for the
+    kernels of :data:`COMP_SIG`: ``nsec`` sections [b0, b1, b2, 1, a1, a2] stored in the
+    parameter row ``p`` from column ``po`` (6 each, scipy's ``sos`` rows), their state in the
+    state row ``s`` from column ``so`` (2 each, updated in place); returns the output."""
     y = x
     for i in range(nsec):
         q = po + 6 * i
@@ -358,10 +320,13 @@ def sos_row(p, po, nsec, s, so, x):
 
 @njit(cache=True, nogil=True, inline="always")
 def watch_row(p, wpo, hpo, s, w, u, z):
-    """:func:`watch_step` for the kernels of :data:`COMP_SIG`: the watch's parameters in the
+    """The oscillation watch of one channel, for the kernels of :data:`COMP_SIG`: its
+    parameters [α, ratio, floor, dt, hold] (:meth:`WatchConfig.watch_params`) in the
     parameter row ``p`` from column ``wpo`` (5), its high-pass section from ``hpo`` (6), its
-    state in the state row ``s`` from column ``w`` (:data:`WATCH_STATES`); the same
-    operations."""
+    state in the state row ``s`` from column ``w`` (:data:`WATCH_STATES`). The command ``u``
+    oscillates when the running RMS of its high-passed part has exceeded ``ratio`` × the
+    running RMS of the desired motion ``z`` about its mean, plus ``floor``, for longer than
+    ``hold`` (s). Returns (oscillating, rms of u_hp, limit)."""
     h = hpo
     alpha, ratio, floor, dt, hold = p[wpo], p[wpo + 1], p[wpo + 2], p[wpo + 3], p[wpo + 4]
     yu = p[h] * u + s[w]

@@ -21,7 +21,9 @@ model fitted to any recorded test by :func:`calibrate`. The design, done once (p
    with F a Butterworth low-pass (``filter_order`` at ``filter_hz``; order 0: none, the exact
    inverse). Filtering only the correction keeps F's lag off the dominant part u ≈ w.
 
-All filters run as second-order sections, one per channel (all channels share the model).
+All filters run as second-order sections, one per channel (all channels share the model), in
+one compiled kernel (:func:`inverse_kernel`: :func:`inverse_row` per channel) that the
+compiled loops and :meth:`InverseCompensator.command` run alike.
 """
 
 from __future__ import annotations
@@ -33,7 +35,15 @@ import numpy as np
 from numba import njit
 
 from ..errors import ConfigError
-from .base import BaseCompensator, CompensatorConfig, check, register, sos_step
+from .base import (
+    BaseCompensator,
+    CompensatorConfig,
+    check,
+    comp_kernel,
+    comp_ready,
+    register,
+    sos_row,
+)
 
 
 @dataclass(frozen=True)
@@ -143,24 +153,43 @@ def design_inverse(num, den, dt: float, name: str = "inverse"
         "reflected": reflected, "dcgain": dc, "zeros": z_inv, "poles": p_inv}
 
 
-@njit(cache=True, nogil=True)
-def _inverse_step(z, zd, u, sos_c, sos_f, zi_c, zi_f, prev, T, c2, dt_inv):
-    """w = z + T ż + c2 z̈; u = w + F(C w − w) (T, c2: (K,), per test). ``prev`` (K, n, 2):
-    ż of the last call and whether there was one (z̈ = 0 on the first call)."""
-    K, n = z.shape
-    for k in range(K):
-        for j in range(n):
-            zdd = (zd[k, j] - prev[k, j, 0]) * dt_inv if prev[k, j, 1] > 0.0 else 0.0
-            prev[k, j, 0] = zd[k, j]
-            prev[k, j, 1] = 1.0
-            w = z[k, j] + T[k] * zd[k, j] + c2[k] * zdd
-            v = sos_step(sos_c, zi_c[k, j], w)
-            u[k, j] = w + sos_step(sos_f, zi_f[k, j], v - w)
+# the inverse's columns in a kernel row, from its parameter offset ``po``: T, c2, 1/dt, the
+# number of sections of H⁻¹ and of F, then those sections (6 each) ...
+_I_T, _I_C2, _I_DTI, _I_NC, _I_NF, _I_SOS = range(6)
+# ... and from its state offset ``so``: ż of the last call, whether there was one, then the
+# sections' states (2 each, H⁻¹'s then F's)
+_I_PREV, _I_HAS, _I_ZI = range(3)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def inverse_row(p, po, s, so, z, zd):
+    """The inverse feed-forward of one channel (``inverse``'s kernel and ``model_based``'s
+    alike): w = z + T ż + c2 z̈ (z̈ from ż by a backward difference, 0 on the first call),
+    u = w + F(H⁻¹ w − w). ``p`` a parameter row with the inverse's columns from ``po``,
+    ``s`` a state row with its state from ``so`` (the ``_I_*`` offsets); returns u."""
+    nc = int(p[po + _I_NC])
+    nf = int(p[po + _I_NF])
+    zdd = (zd - s[so + _I_PREV]) * p[po + _I_DTI] if s[so + _I_HAS] > 0.0 else 0.0
+    s[so + _I_PREV] = zd
+    s[so + _I_HAS] = 1.0
+    w = z + p[po + _I_T] * zd + p[po + _I_C2] * zdd
+    v = sos_row(p, po + _I_SOS, nc, s, so + _I_ZI, w)
+    return w + sos_row(p, po + _I_SOS + 6 * nc, nf, s, so + _I_ZI + 2 * nc, v - w)
+
+
+@comp_kernel
+def inverse_kernel(p, s, z, zd, zm, u):
+    """One call of the ``inverse`` compensator for R = K·n rows: :func:`inverse_row` per
+    row (parameters and state from column 0)."""
+    for r in range(z.shape[0]):
+        u[r] = inverse_row(p[r], 0, s[r], 0, z[r], zd[r])
+    return False
 
 
 class InverseCore:
-    """The inverse feed-forward for K × n channels (shared by ``inverse`` and
-    ``model_based``)."""
+    """The inverse feed-forward's design and its columns in a kernel's rows (shared by
+    ``inverse`` and ``model_based``; the arithmetic is :func:`inverse_row`): ``P``
+    parameter and ``S`` state columns per row."""
 
     def __init__(self, config: InverseModel, K: int, n: int, dt: float, name: str):
         from .base import butter_sos
@@ -174,38 +203,49 @@ class InverseCore:
         self.sos_c, _, self.report = design_inverse(num, den, dt, name)
         self.sos_f = butter_sos(config.filter_order, config.filter_hz, dt)
         self.order = config.delay_order
-        self.T = np.full(K, float(config.delay))
-        self.c2 = 0.5 * self.T**2 if self.order == 2 else np.zeros(K)
-        self.zi_c = np.zeros((K, n, self.sos_c.shape[0], 2))
-        self.zi_f = np.zeros((K, n, self.sos_f.shape[0], 2))
-        self.prev = np.zeros((K, n, 2))
-        self.dt = dt
+        self.K, self.n, self.dt = K, n, dt
+        self.delay = float(config.delay)
+        nc, nf = self.sos_c.shape[0], self.sos_f.shape[0]
+        self.P = _I_SOS + 6 * (nc + nf)
+        self.S = _I_ZI + 2 * (nc + nf)
 
-    def reset(self) -> None:
-        self.zi_c[:] = 0.0
-        self.zi_f[:] = 0.0
-        self.prev[:] = 0.0
+    def fill(self, p: np.ndarray, po: int) -> None:
+        """Write the inverse's parameters into the rows of ``p`` (K·n, ·) from column
+        ``po``: T = the configured delay for every test."""
+        nc, nf = self.sos_c.shape[0], self.sos_f.shape[0]
+        p[:, po + _I_DTI] = 1.0 / self.dt
+        p[:, po + _I_NC] = nc
+        p[:, po + _I_NF] = nf
+        p[:, po + _I_SOS:po + _I_SOS + 6 * nc] = self.sos_c.reshape(-1)
+        p[:, po + _I_SOS + 6 * nc:po + self.P] = self.sos_f.reshape(-1)
+        self._delays(p, po, np.full(self.K, self.delay))
 
-    def start_from_delay(self, delay: np.ndarray) -> None:
+    def _delays(self, p: np.ndarray, po: int, T: np.ndarray) -> None:
+        """T (K,) s per test and c2 = T²/2 (0 for ``delay_order = 1``) into the rows."""
+        c2 = 0.5 * T**2 if self.order == 2 else np.zeros(self.K)
+        p[:, po + _I_T] = np.repeat(T, self.n)
+        p[:, po + _I_C2] = np.repeat(c2, self.n)
+
+    def delays(self, p: np.ndarray, po: int) -> np.ndarray:
+        """The model's pure delay T (K,) s per test, read from the rows."""
+        return p[::self.n, po + _I_T].copy()
+
+    def start_from_delay(self, delay: np.ndarray, p: np.ndarray, po: int) -> None:
         """T per test = what the model G leaves of ``delay`` (K,) s, the transfer system's
         predicted delay from command to measurement: delay − G's low-frequency group delay
-        + ΔT/2 (the held-step map z·G_zoh that H⁻¹ inverts leads G by half a step), ≥ 0."""
+        + ΔT/2 (the held-step map z·G_zoh that H⁻¹ inverts leads G by half a step), ≥ 0;
+        written with c2 into the parameter rows ``p`` from column ``po``."""
         from ..transfer.actuators import delay_estimate
 
         rest = np.asarray(delay, dtype=float).reshape(-1) - delay_estimate(*self.model) \
             + 0.5 * self.dt
-        self.T[:] = np.maximum(rest, 0.0)
-        self.c2[:] = 0.5 * self.T**2 if self.order == 2 else 0.0
-
-    def __call__(self, z: np.ndarray, zdot: np.ndarray, out: np.ndarray) -> np.ndarray:
-        _inverse_step(z, zdot, out, self.sos_c, self.sos_f, self.zi_c, self.zi_f, self.prev,
-                      self.T, self.c2, 1.0 / self.dt)
-        return out
+        self._delays(p, po, np.maximum(rest, 0.0))
 
 
 @register
 class InverseCompensator(BaseCompensator):
-    """Inverse-model feed-forward (see module docstring); no adaptive coefficients."""
+    """Inverse-model feed-forward (see module docstring); no adaptive coefficients. Its step
+    is :func:`inverse_kernel` (parameters and state per row: the ``_I_*`` columns)."""
 
     name = "inverse"
     rank = 50
@@ -213,25 +253,34 @@ class InverseCompensator(BaseCompensator):
 
     def __init__(self, config: InverseConfig, K: int, n: int, dt: float):
         super().__init__(config, K, n, dt)
-        self.core = InverseCore(config, K, n, dt, "inverse")
+        self.core = core = InverseCore(config, K, n, dt, "inverse")
+        comp_ready(inverse_kernel)
+        self.params = np.zeros((K * n, core.P))
+        core.fill(self.params, 0)
+        self.state = np.zeros((K * n, core.S))
 
     def reset(self) -> None:
         super().reset()
-        self.core.reset()
+        self.state[:] = 0.0
 
     prior_keys = ("delay",)
 
     def start_from_delay(self, delay: np.ndarray) -> bool:
         """The model's pure delay T = what the model leaves of ``delay`` (per test; see
         :meth:`InverseCore.start_from_delay`)."""
-        self.core.start_from_delay(delay)
+        self.core.start_from_delay(delay, self.params, 0)
         self.reset()
         return True
 
     def command(self, z: np.ndarray, zdot: np.ndarray, z_meas: np.ndarray) -> np.ndarray:
-        self.core(z, zdot, self.u)
+        flat = self.u.reshape(-1)
+        inverse_kernel(self.params, self.state, np.ascontiguousarray(z).reshape(-1),
+                       np.ascontiguousarray(zdot).reshape(-1), flat, flat)
         self.calls += 1
         return self.u
+
+    def compiled(self):
+        return (inverse_kernel,), self.params, self.state
 
 
 def calibrate(u: np.ndarray, z_meas: np.ndarray, dt: float,

@@ -14,8 +14,13 @@ same role. Keep its bandwidth well below 1/(the loop's delay): the feedback acts
 whole transfer system.
 
 Drift safety: |u_fb| above ``fb_limit`` (the feedback doing more than a correction: integral
-wind-up, a plant far from its model) or an oscillating command stops the test. Coefficients
-reported: ``u_fb`` (the current feedback correction, channel units).
+wind-up, a plant far from its model) or an oscillating command stops the test; from the next
+call on its command holds. Coefficients reported: ``u_fb`` (the current feedback correction,
+channel units).
+
+The whole step is one compiled kernel (:func:`model_based_kernel`: the inverse's
+:func:`~.inverse.inverse_row`, then the feedback, the limit and the watch per channel), run
+by the compiled loops and by :meth:`ModelBasedCompensator.command` alike.
 """
 
 from __future__ import annotations
@@ -24,7 +29,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from .base import (
     WATCH_STATES,
@@ -32,10 +36,12 @@ from .base import (
     WatchConfig,
     butter_sos,
     check,
+    comp_kernel,
+    comp_ready,
     register,
-    watch_step,
+    watch_row,
 )
-from .inverse import InverseCore, InverseModel
+from .inverse import InverseCore, InverseModel, inverse_row
 
 
 @dataclass(frozen=True)
@@ -67,40 +73,63 @@ class ModelBasedConfig(InverseModel, WatchConfig):
         check("model_based.fb_limit", self.fb_limit, self.fb_limit > 0, "must be > 0")
 
 
-@njit(cache=True, nogil=True)
-def _feedback_step(z, zm, u, fb, state, watch, hp, wp, stopped, code, ev_val, ev_lim, prm):
-    """Add the PI feedback to the feed-forward already in ``u``. ``state`` (K, n, 3): the
-    last target, the filtered error, the integral. ``prm`` = [kp, ki·dt, filter α,
-    fb_limit]; ``wp``: the watch's parameters."""
-    kp, kidt, beta, limit = prm[0], prm[1], prm[2], prm[3]
-    K, n = z.shape
+# the per-row parameters (``p`` of the kernel, (R, P)): the feedback's scalars, the number
+# of channels per test, the watch's parameters, its high-pass section, then the inverse's
+# columns (:mod:`.inverse`, the ``_I_*`` offsets from ``_P_INV``)
+_P_KP, _P_KIDT, _P_BETA, _P_LIMIT, _P_N = range(5)
+_P_WP, _P_HP, _P_INV = 5, 10, 16
+# the per-row state (``s`` of the kernel, (R, S)): the last target, the filtered error, the
+# integral, the feedback correction u_fb, the event (code, value, limit), the stop flag
+# (the test's first row), the watch, then the inverse's state
+_S_LAST, _S_ERR, _S_INT, _S_FB, _S_CODE, _S_VAL, _S_LIM, _S_STOP = range(8)
+_S_WATCH = 8
+_S_INV = _S_WATCH + WATCH_STATES
+
+
+@comp_kernel
+def model_based_kernel(p, s, z, zd, zm, u):
+    """One call of the ``model_based`` compensator for R = K·n rows (test-major; layout: the
+    ``_P_*``, ``_S_*`` offsets): per channel the inverse feed-forward
+    (:func:`~.inverse.inverse_row`) plus the PI feedback on the low-passed error
+    z_{k−1} − z_meas,k, the |u_fb| limit and the oscillation watch. A stopped test is
+    skipped (its command holds). Returns True when a new safety event was raised."""
+    n = int(p[0, _P_N])
+    K = z.shape[0] // n
     event = False
     for k in range(K):
-        if stopped[k]:
+        h0 = k * n
+        if s[h0, _S_STOP] != 0.0:
             continue
+        stop = False
         for j in range(n):
-            s = state[k, j]
-            e = s[0] - zm[k, j]
-            s[1] += beta * (e - s[1])
-            s[2] += kidt * s[1]
-            c = kp * s[1] + s[2]
-            fb[k, j] = c
-            s[0] = z[k, j]
-            uk = u[k, j] + c
-            u[k, j] = uk
-            if abs(c) > limit and code[k, j] == 0:
-                code[k, j] = 1
-                ev_val[k, j] = abs(c)
-                ev_lim[k, j] = limit
+            r = h0 + j
+            pr = p[r]
+            sr = s[r]
+            uff = inverse_row(pr, _P_INV, sr, _S_INV, z[r], zd[r])
+            e = sr[_S_LAST] - zm[r]
+            sr[_S_ERR] += pr[_P_BETA] * (e - sr[_S_ERR])
+            sr[_S_INT] += pr[_P_KIDT] * sr[_S_ERR]
+            c = pr[_P_KP] * sr[_S_ERR] + sr[_S_INT]
+            sr[_S_FB] = c
+            sr[_S_LAST] = z[r]
+            uk = uff + c
+            u[r] = uk
+            limit = pr[_P_LIMIT]
+            if abs(c) > limit and sr[_S_CODE] == 0.0:
+                sr[_S_CODE] = 1.0
+                sr[_S_VAL] = abs(c)
+                sr[_S_LIM] = limit
                 event = True
-            osc, ru, lim = watch_step(hp, watch[k, j], uk, z[k, j], wp)
-            if osc and code[k, j] == 0:
-                code[k, j] = 2
-                ev_val[k, j] = ru
-                ev_lim[k, j] = lim
+            osc, ru, lim = watch_row(pr, _P_WP, _P_HP, sr, _S_WATCH, uk, z[r])
+            if osc and sr[_S_CODE] == 0.0:
+                sr[_S_CODE] = 2.0
+                sr[_S_VAL] = ru
+                sr[_S_LIM] = lim
                 event = True
-        if code[k].any():
-            stopped[k] = True
+            if sr[_S_CODE] != 0.0:
+                stop = True
+        if stop:
+            s[h0, _S_STOP] = 1.0
     return event
 
 
@@ -116,55 +145,65 @@ class ModelBasedCompensator(BaseCompensator):
     name = "model_based"
     rank = 70
     Config = ModelBasedConfig
+    adaptive = True
 
     def __init__(self, config: ModelBasedConfig, K: int, n: int, dt: float):
         super().__init__(config, K, n, dt)
         c = config
         c.check_watch("model_based", dt)
-        self.core = InverseCore(c, K, n, dt, "model_based")
+        self.core = core = InverseCore(c, K, n, dt, "model_based")
+        comp_ready(model_based_kernel)
         self.hp = butter_sos(2, c.osc_corner, dt, "highpass")
-        self.prm = np.array([c.kp, c.ki * dt, -math.expm1(-2 * math.pi * c.fb_hz * dt),
-                             c.fb_limit])
         self.wp = c.watch_params(dt)
-        self.fb = np.zeros((K, n))
-        self.state = np.zeros((K, n, 3))
-        self.watch = np.zeros((K, n, WATCH_STATES))
-        self.code = np.zeros((K, n), dtype=np.int64)
-        self.ev_val = np.zeros((K, n))
-        self.ev_lim = np.zeros((K, n))
-        self._held = np.zeros((K, n))
+        R = K * n
+        # the kernel's arrays (rows test-major, row = k·n + j): its parameters ...
+        p = np.zeros((R, _P_INV + core.P))
+        p[:, :_P_WP] = [c.kp, c.ki * dt, -math.expm1(-2 * math.pi * c.fb_hz * dt),
+                        c.fb_limit, n]
+        p[:, _P_WP:_P_HP] = self.wp
+        p[:, _P_HP:_P_INV] = self.hp[0]
+        core.fill(p, _P_INV)
+        self.params = p
+        # ... and its state; the Python object reads views of them
+        self.state = s = np.zeros((R, _S_INV + core.S))
+        self.fb = s[:, _S_FB].reshape(K, n)
+        """The feedback correction u_fb (K, n) (a view of the kernel's state)."""
+        self.code = s[:, _S_CODE].reshape(K, n)
+        self.ev_val = s[:, _S_VAL].reshape(K, n)
+        self.ev_lim = s[:, _S_LIM].reshape(K, n)
 
     def reset(self) -> None:
         super().reset()
-        self.core.reset()
-        for arr in (self.fb, self.state, self.watch, self.ev_val, self.ev_lim):
-            arr[:] = 0.0
-        self.code[:] = 0
+        self.state[:] = 0.0
 
     def command(self, z: np.ndarray, zdot: np.ndarray, z_meas: np.ndarray) -> np.ndarray:
-        any_stopped = self.stopped.any()
-        if any_stopped:  # stopped tests keep their last command
-            np.copyto(self._held, self.u)
-        self.core(z, zdot, self.u)
-        if _feedback_step(z, z_meas, self.u, self.fb, self.state, self.watch, self.hp, self.wp,
-                          self.stopped, self.code, self.ev_val, self.ev_lim, self.prm):
-            self._events(self.code, self.ev_val, self.ev_lim, LABELS, UNITS)
-        if any_stopped:
-            self.u[self.stopped] = self._held[self.stopped]
+        if model_based_kernel(self.params, self.state, np.ascontiguousarray(z).reshape(-1),
+                              np.ascontiguousarray(zdot).reshape(-1),
+                              np.ascontiguousarray(z_meas).reshape(-1), self.u.reshape(-1)):
+            self.events()
         self.calls += 1
         return self.u
+
+    def events(self, call: int | None = None, tests: slice = slice(None)) -> None:
+        """The kernel's new safety events of ``tests`` as stops (at call ``call``, default
+        this one): the compiled loop calls this after the step whose kernel call returned
+        True."""
+        self._events(self.code, self.ev_val, self.ev_lim, LABELS, UNITS, call, tests)
+
+    def compiled(self):
+        return (model_based_kernel,), self.params, self.state
 
     def coefficients(self) -> dict[str, np.ndarray]:
         return {"u_fb": self.fb}
 
     def history(self) -> np.ndarray:
-        return self.fb[..., None]
+        return self.state[:, _S_FB:_S_FB + 1].reshape(self.K, self.n, 1)
 
     prior_keys = ("delay",)
 
     def start_from_delay(self, delay: np.ndarray) -> bool:
         """The model's pure delay T = what the model leaves of ``delay`` (per test; see
         :meth:`InverseCore.start_from_delay`)."""
-        self.core.start_from_delay(delay)
+        self.core.start_from_delay(delay, self.params, _P_INV)
         self.reset()
         return True

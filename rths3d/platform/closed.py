@@ -2,9 +2,9 @@
 
 :func:`closed_range` advances a range of interface steps of K tests in one compiled call:
 the linear numerical substructure's step (:func:`~rths3d.numerical._kernels.linear_step`)
-and the command check, the compensator's kernel (those with ``compiled()``: the fixed
-schemes, ATS and RLS with their adaptation and drift stops; per interface DOF, or per leg
-in place of the platform's leg hook), the
+and the command check, the compensator's kernel (those with ``compiled()``: every shipped
+compensator, the adaptive ones with their adaptation and drift stops; per interface DOF, or
+per leg in place of the platform's leg hook), the
 platform's step as :meth:`PlatformBatch.advance <rths3d.platform.sim.PlatformBatch.advance>`
 takes it (inverse kinematics, set-point blocks, the servo's hold, ``mj_step``/``mj_forward``
 through MuJoCo's C API, :mod:`rths3d.platform.compiled`), the FTS and sampling, the sensor
@@ -288,7 +288,7 @@ _CLOSED = AnyLayout(closed_range)
 
 def closed_ok(transfer: Any) -> bool:
     """Whether the compiled closed loop can step this Stewart transfer system: a compensator
-    with a kernel (fixed schemes, ATS, RLS; per interface DOF, or per leg in place of the
+    with a kernel (every shipped one; per interface DOF, or per leg in place of the
     platform's hook), no noise in the set-point blocks, no per-test model fields expanded
     inside a ``mujoco.batch.Batch``, at most one noise block in the sensor chain."""
     from .ranges import compiled_ok
