@@ -11,13 +11,16 @@ the scene. Prints, and writes to ``results.json`` in the output folder:
 - described wrong: one error each (hold mode, sampling instant, payload mass, centre-of-mass
   height, one anchor): found first, validation ≤ 1.2 after it;
 - matrix: per-leg, geometry, FTS and payload effects hidden in bench A (``--bench servo``:
-  bench D, A with its servo's lag after the hold): right effect first, right leg,
-  validation ≤ 1.2 after adding it, no statement of the description revised.
+  bench D, A with its servo's lag after the hold; ``valve``: E, A with a servo-valve;
+  ``physics``: F, D with a stiffer chain closure and a disc plate): right effect first,
+  right leg, validation ≤ 1.2 after adding it, no statement of the description revised;
+- baseline: the null and the matrix on bench A with structural damping in its frame (a
+  discrepancy no candidate has), each diagnosed against a record of the healthy bench.
 
-Run: ``python examples/66_foreign_bench.py [--quick] [--kinds null,wrong,matrix]
-[--shard I/N] [--bench rigid|servo] [--out DIR]`` (the full set takes about an hour on two
-shared cores; ``--quick`` runs one case of each kind; ``--shard 0/2`` runs every second case,
-for two processes; a bad argument: one ``error:`` line, exit code 2).
+Run: ``python examples/66_foreign_bench.py [--quick] [--kinds null,wrong,matrix,baseline]
+[--shard I/N] [--bench rigid|servo|valve|physics] [--out DIR]`` (the full set takes about an
+hour on two shared cores; ``--quick`` runs one case of each kind; ``--shard 0/2`` runs every
+second case, for two processes; a bad argument: one ``error:`` line, exit code 2).
 """
 
 from __future__ import annotations
@@ -42,25 +45,28 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="one case of each kind")
     ap.add_argument("--kinds", default="null,wrong,matrix",
-                    help="which sets to run (comma-separated: null, wrong, matrix)")
+                    help="which sets to run (comma-separated: null, wrong, matrix, "
+                         "baseline)")
     ap.add_argument("--shard", default="0/1", help="I/N: run every N-th case from the I-th")
     ap.add_argument("--bench", default="rigid",
-                    help="the matrix's bench: rigid (A) or servo (D: A with its servo's "
-                         "3 ms lag after the hold, described with lag = \"servo\")")
+                    help="the matrix's bench: rigid (A), servo (D: A with its servo's "
+                         "3 ms lag after the hold, described with lag = \"servo\"), valve "
+                         "(E: A with a 55 Hz servo-valve) or physics (F: D with a stiffer "
+                         "chain closure and a disc plate)")
     ap.add_argument("--out", type=Path, default=Path("foreign_bench_results"),
                     help="output folder (results.json)")
     args = ap.parse_args()
     kinds = {k.strip() for k in args.kinds.split(",") if k.strip()}
-    bad = kinds - {"null", "wrong", "matrix"}
+    bad = kinds - {"null", "wrong", "matrix", "baseline"}
     try:
         i0, n = (int(v) for v in args.shard.split("/"))
         assert 0 <= i0 < n
     except (ValueError, AssertionError):
         _fail(f"error: --shard: {args.shard!r} must be I/N with 0 <= I < N")
     if bad:
-        _fail(f"error: --kinds: {sorted(bad)} not among null, wrong, matrix")
-    if args.bench not in ("rigid", "servo"):
-        _fail(f"error: --bench: {args.bench!r} must be rigid or servo")
+        _fail(f"error: --kinds: {sorted(bad)} not among null, wrong, matrix, baseline")
+    if args.bench not in ("rigid", "servo", "valve", "physics"):
+        _fail(f"error: --bench: {args.bench!r} must be rigid, servo, valve or physics")
     if not (TESTS / "foreign_bench.py").is_file():
         _fail("error: tests/foreign_bench.py not found: run from a clone of the repository")
     sys.path.insert(0, str(TESTS))
@@ -71,12 +77,14 @@ def main() -> None:
     matrix = list(fb.MATRIX)[:1] if args.quick else list(fb.MATRIX)
     cases = [("null", c) for c in nulls if "null" in kinds] + \
         [("wrong", c) for c in wrong if "wrong" in kinds] + \
-        [("matrix", c) for c in matrix if "matrix" in kinds]
+        [("matrix", c) for c in matrix if "matrix" in kinds] + \
+        [("baseline", c) for c in [None, *matrix] if "baseline" in kinds]
     cases = cases[i0::n]
     nulls = [c for k, c in cases if k == "null"]
     wrong = [c for k, c in cases if k == "wrong"]
     matrix = [c for k, c in cases if k == "matrix"]
-    out: dict = {"null": [], "wrong": [], "matrix": []}
+    baseline = [c for k, c in cases if k == "baseline"]
+    out: dict = {"null": [], "wrong": [], "matrix": [], "baseline": []}
     t0 = time.time()
     with tempfile.TemporaryDirectory() as tmp:
         for i, name in enumerate(nulls):
@@ -101,6 +109,13 @@ def main() -> None:
             row = fb.matrix_case(folder, label, bench=args.bench)
             out["matrix"].append(row)
             print("matrix", {k: v for k, v in row.items() if k != "revisions"}, flush=True)
+        for i, label in enumerate(baseline):
+            folder = Path(tmp) / f"baseline{i}"
+            folder.mkdir()
+            row = fb.baseline_case(folder, fb.rigid_bench(),
+                                   {"frame_damping": fb.FRAME_DAMPING}, label)
+            out["baseline"].append(row)
+            print("baseline", {k: v for k, v in row.items() if k != "revisions"}, flush=True)
 
     def rate(rows, key):
         vals = [r[key] for r in rows if r.get(key) is not None]
@@ -114,6 +129,8 @@ def main() -> None:
         "matrix_first": rate(out["matrix"], "found"),
         "matrix_right_leg": rate(out["matrix"], "right_leg"),
         "matrix_fixed": rate([{"ok": r["error_val"] <= 1.2} for r in out["matrix"]], "ok"),
+        "baseline_first": rate(out["baseline"], "found"),
+        "baseline_right_leg": rate(out["baseline"], "right_leg"),
         "statements_kept": rate([{"ok": not r["other_revisions"]} for r in out["matrix"]]
                                 + [{"ok": r["proposal"] is None} for r in out["null"]], "ok"),
         "minutes": round((time.time() - t0) / 60, 1),

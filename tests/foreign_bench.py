@@ -102,6 +102,15 @@ class ForeignBench:
     """The servo's continuous first-order lag after the hold (s): the slide is driven
     towards x, ẋ = (u − x)/τ of the held command u (a valve or amplifier), x an activation
     of the servo's own actuator integrated with the physics at the physics step; 0: none."""
+    closure: tuple[float, float] = (0.002, 1.0)
+    """MuJoCo ``solref`` (time constant s, damping ratio) of the legs' tip-to-plate
+    connections: how stiffly the bench's chain closes (the bench model's is 2 ms)."""
+    integrator: str = "RK4"
+    """MuJoCo's integrator of the bench's physics (another than the replay's: a bench the
+    model cannot fully explain)."""
+    frame_damping: float = 0.0
+    """Viscous damping in every universal joint's hinges (N·m·s/rad): structural damping of
+    the frame, which no effect of the library has."""
     valve_hz: float = 0.0
     valve_damping: float = 0.7
     """A servo-valve after the hold (Hz, damping ratio; 0 Hz: none): the servo's set-point is
@@ -128,8 +137,8 @@ class ForeignBench:
             cl = 0.55 * L
             legs.append(f"""
     <body name="c{i}" pos="{b[i][0]} {b[i][1]} {b[i][2]}" quat="{q[0]} {q[1]} {q[2]} {q[3]}">
-      <joint name="u{i}a" type="hinge" axis="1 0 0"/>
-      <joint name="u{i}b" type="hinge" axis="0 1 0"/>
+      <joint name="u{i}a" type="hinge" axis="1 0 0" damping="{self.frame_damping}"/>
+      <joint name="u{i}b" type="hinge" axis="0 1 0" damping="{self.frame_damping}"/>
       <geom type="cylinder" size="0.02 {cl / 2}" pos="0 0 {cl / 2}" mass="{self.cylinder_mass}"
             contype="0" conaffinity="0"/>
       <body name="s{i}">
@@ -148,7 +157,8 @@ class ForeignBench:
                    'contype="0" conaffinity="0"/>' if self.fixture_mass else "")
         anchors = "\n".join(f'      <site name="a{i}" pos="{p[i][0]} {p[i][1]} {p[i][2]}"/>'
                             for i in range(6))
-        conn = "\n".join(f'    <connect site1="tip{i}" site2="a{i}" solref="0.002 1" '
+        conn = "\n".join(f'    <connect site1="tip{i}" site2="a{i}" '
+                          f'solref="{self.closure[0]} {self.closure[1]}" '
                          f'solimp="0.99 0.999 0.0001"/>' for i in range(6))
         kps = [self.kp * s for s in self.kp_scale]
         dyn = (f'dyntype="filter" dynprm="{self.servo_lag!r}" ' if self.servo_lag > 0
@@ -157,7 +167,7 @@ class ForeignBench:
                          f'biastype="affine" biasprm="0 {-kps[i]} {-self.kv}"/>'
                          for i in range(6))
         return f"""<mujoco model="foreign_bench">
-  <option timestep="{self.physics_dt}" integrator="RK4" gravity="0 0 -9.81"/>
+  <option timestep="{self.physics_dt}" integrator="{self.integrator}" gravity="0 0 -9.81"/>
   <worldbody>
 {"".join(legs)}
     <body name="top" pos="0 0 {h}">

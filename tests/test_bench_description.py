@@ -454,3 +454,33 @@ def test_bench_init_from_files_names_them_beside_the_scene(tmp_path):
     assert sc.platform.geometry.stroke == 0.12 and sc.dofs == ("z",)
     assert sc.experiment.file == str(part.resolve()) and sc.controller.gravity == "none"
     assert platform_config(sc).actuator.gravity_comp is False
+
+
+def test_contact_gap_moves_the_surface_of_the_users_mjcf_part(tmp_path):
+    """The contact gap acts on a part the user wrote as MJCF through the file's world-fixed
+    bodies: with the surface 1 mm closer on the Stewart platform, the record equals the
+    shipped contact part's with the same effect (to 1e-9 of the peaks) and differs from the
+    part without it; it is a candidate for a file with a surface, not for one without."""
+    from rths3d.diagnose.engine import default_candidates
+
+    f = _mjcf_part(tmp_path, block=0.0)
+    stewart = {"kind": "stewart"}
+    raw = _contact_raw(experiment={"kind": "mjcf", "file": str(f), "dofs": ["z"],
+                                   "substeps": 4})
+    raw["transfer"] = {**raw["transfer"], **stewart}
+    ship = _contact_raw()
+    ship["transfer"] = {**ship["transfer"], **stewart}
+    gap = [{"name": "contact_gap", "value": -1e-3}]
+    mine = run(scene_from_dict({**raw, "effect": gap}), reference=False).record
+    theirs = run(scene_from_dict({**ship, "effect": gap}), reference=False).record
+    plain = run(scene_from_dict(raw), reference=False).record
+    for c in ("z_meas.z", "f_meas.z"):
+        x, y = np.asarray(mine.columns[c]), np.asarray(theirs.columns[c])
+        assert np.max(np.abs(x - y)) <= 1e-9 * np.max(np.abs(y)), c
+    assert np.max(np.abs(mine.columns["f_meas.z"] - plain.columns["f_meas.z"])) > 5.0  # N
+    assert "contact_gap" in default_candidates(scene_from_dict(raw))
+    bare = tmp_path / "bare.xml"
+    bare.write_text('<mujoco><worldbody><body name="block"><geom type="box" '
+                    'size="0.03 0.03 0.01" mass="1"/></body></worldbody></mujoco>')
+    rigid = _contact_raw(experiment={"kind": "mjcf", "file": str(bare), "dofs": ["z"]})
+    assert "contact_gap" not in default_candidates(scene_from_dict(rigid))

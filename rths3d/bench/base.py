@@ -134,6 +134,18 @@ class Bench:
         kids = spec.body("fts_body").bodies
         return kids[0].name if kids else "fts_body"
 
+    @cached_property
+    def world_bodies(self) -> tuple[str, ...]:
+        """Names of the part's world-fixed bodies (the surface of a part the user wrote as
+        an MJCF file)."""
+        payload, world, extra = self.fragments
+        if not world:
+            return ()
+        bare = {b.name for b in build_spec(self.platform, payload, None, extra)
+                .worldbody.bodies}
+        return tuple(b.name for b in build_spec(self.platform, *self.fragments)
+                     .worldbody.bodies if b.name not in bare)
+
     # ------------------------------------------------------------------ the truth
     def active(self, stage: str | None = None) -> list[tuple[Effect, EffectConfig]]:
         """The effects that are on (of one stage)."""

@@ -184,8 +184,14 @@ def diagnose(
     if st == "noise_only":
         con.print("[green]only noise remains[/]: no effect proposed")
     elif st == "unexplained":
-        con.print(f"[red]unexplained residual[/]: {result.error_val:.3g} noise units remain "
-                  "that no library effect explains; check the bench or add an effect")
+        con.print(f"[red]unexplained systematic residual of {result.systematic_sigma:.3g} σ"
+                  f"[/] (validation error {result.error_val:.3g} noise units) that no "
+                  "candidate takes most of the way to noise; detection limit "
+                  f"{result.detection_limit:.3g} σ; check what the scene cannot state, or "
+                  "diagnose against a healthy record (--baseline)")
+        if result.absorbed:
+            con.print("not proposed (would absorb part of it): " + ", ".join(
+                f"{k} ({v:.0%})" for k, v in list(result.absorbed.items())[:4]))
     else:
         p = result.proposal
         if p is not None:

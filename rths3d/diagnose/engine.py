@@ -42,7 +42,7 @@ from ..bench import BenchReplay, ReplayInput
 from ..config import Scene
 from ..effects import REGISTRY, ProbeData, bench_effects, get_effect, parse_label
 from ..errors import ConfigError, RecordError
-from ..experiment import part_class
+from ..experiment import make_part
 from ..record import Record
 from .bench import resolve_bench
 from .calibrations import Calibrations
@@ -65,7 +65,7 @@ def default_candidates(scene: Scene) -> list[str]:
     calibrations. Part effects a part does not have (a contact gap without a surface) are
     left out."""
     out: list[str] = []
-    part = part_class(scene.experiment.kind)
+    part = make_part(scene.experiment)
     for name, eff in REGISTRY.items():
         # anchors and the FTS matrix are fitted together by the calibrations (MULTI)
         if not eff.candidate or eff.calibrated or not eff.exists_for(part):

@@ -227,9 +227,20 @@ def _verdict(result: RoundResult) -> list[str]:
         if p.evidence:
             lines += [f"This {p.evidence}.", ""]
     elif result.status == "unexplained":
-        lines += ["**Unexplained residual**: no effect of the library explains it "
-                  f"significantly, yet it is not noise (validation error {result.error_val:.3g}"
-                  " noise units). Check the bench (scene) or add a new effect.", ""]
+        lines += [f"**Unexplained systematic residual of {result.systematic_sigma:.3g} σ** "
+                  f"(validation error {result.error_val:.3g} noise units): no effect of the "
+                  "library, and no revision of the description, takes it most of the way to "
+                  "noise, alone or with the next candidates. Detection limit "
+                  f"{result.detection_limit:.3g} σ: an effect whose signature (RMS on the "
+                  "validation blocks) is smaller is not told apart from this residual."]
+        if result.absorbed:
+            lines.append("Candidates that would absorb part of it (not proposed: their "
+                         "estimates would be biased by it): " + ", ".join(
+                             f"`{k}` ({v:.0%} of the excess)" for k, v in
+                             list(result.absorbed.items())[:4]) + ".")
+        lines += ["Check what the scene cannot state (docs/bench.md), or diagnose against a "
+                  "record of the healthy bench (`--baseline HEALTHY`), which takes out what "
+                  "both records share.", ""]
     else:
         lines += ["**Partly explained**: the accepted effects leave structure that no "
                   "further library effect explains.", ""]

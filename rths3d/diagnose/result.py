@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -89,10 +90,23 @@ class RoundResult:
     """Structure remains after the best candidate (or the accepted effects)."""
     remaining: dict[str, Any] = field(default_factory=dict)
     """Where the residual left by the proposal (or the current model) sits."""
+    detection_limit: float = float("nan")
+    """With an unexplained residual (status ``unexplained``): the smallest effect, as the
+    RMS of its signature on the validation blocks in noise units, that the diagnosis could
+    still tell apart from it (:func:`~.rounds.detection_limit`); NaN otherwise."""
+    absorbed: dict[str, float] = field(default_factory=dict)
+    """Candidates that would absorb part of an unexplained residual (not proposed): label →
+    the share of the excess over noise each removes."""
     seconds: dict[str, float] = field(default_factory=dict)
     """Wall time of the round (s): ``screen`` (the calibrations and the batched replay of
     every candidate at its probe value), ``refit`` (the two batched secant steps), ``rank``
     and ``round`` (all of it); ``simulations`` replays and ``threads`` they ran on."""
+
+    @property
+    def systematic_sigma(self) -> float:
+        """The residual's excess over noise, √(e² − 1) of the validation error e (noise
+        units: the RMS of what is not noise)."""
+        return math.sqrt(max(self.error_val ** 2 - 1.0, 0.0))
 
     @property
     def status(self) -> str:
@@ -119,6 +133,10 @@ class RoundResult:
             "channel_rms": self.channel_rms,
             "noise_sigma": self.noise_sigma,
             "remaining": self.remaining,
+            "systematic_sigma": self.systematic_sigma,
+            "detection_limit": (None if math.isnan(self.detection_limit)
+                                else self.detection_limit),
+            "absorbed": self.absorbed,
             "seconds": self.seconds,
         }
 

@@ -322,6 +322,27 @@ class RoundStages:
                     confounded.append((a, b, float(np.dot(x, y)) / den))
         _description_first(ranked, cands, confounded)
         proposal = next((c for c in ranked if c.significant), None)
+        absorbed: dict[str, float] = {}
+        if proposal is not None and not _explains(proposal, e_va0):
+            # (at the noise level already there is nothing for several to explain)
+            joint = self._joint(proposal, s, fin) if e_va0 > NOISE_LIKE else None
+            if joint is not None and _share(e_va0, joint[1]) >= DECISIVE:
+                proposal.detail.append(
+                    "explains the record jointly with " + ", ".join(joint[0]) +
+                    f": validation error {e_va0:.3g} → {joint[1]:.3g} noise units")
+            else:
+                # no candidate takes the record most of the way to noise, alone or with
+                # the next ones: what they would absorb is part of a residual the library
+                # does not explain, and their estimates are biased by it
+                for c in ranked:
+                    if c.significant:
+                        c.significant = False
+                        absorbed[c.effect] = _share(e_va0, c.error_after)
+                        c.note = (f"absorbs {absorbed[c.effect]:.0%} of an unexplained "
+                                  f"residual's excess over noise ({DECISIVE:.0%} needed"
+                                  + (f"; {joint[1]:.3g} noise units jointly with "
+                                     + ", ".join(joint[0][1:]) if joint else "") + ")")
+                proposal = None
         chan_rms = {c: float(np.sqrt(np.mean((r0[c][1:] * self.sigma[c]) ** 2)))
                     for c in self.channels}
         noise_like = e_va0 <= NOISE_LIKE
@@ -335,9 +356,91 @@ class RoundStages:
         elif not noise_like:
             remaining = remaining_structure(r0, self, self.channels)
             partly = bool(self.accepted)
+        limit = float("nan")
+        if proposal is None and not noise_like:
+            limit = detection_limit(e_va0)
         return RoundResult(ranked, dict(self.accepted), proposal is None and noise_like,
                            proposal, confounded, e_tr0, e_va0, chan_rms, dict(self.sigma),
-                           white, partly, remaining)
+                           white, partly, remaining, detection_limit=limit,
+                           absorbed=absorbed)
+
+    def _joint(self, proposal: Candidate, s: Screen, fin: dict[str, dict[str, np.ndarray]]
+               ) -> tuple[list[str], float] | None:
+        """The proposal fitted jointly with the single-parameter effects that best explain
+        what it leaves (greedy, by the projection of the training residual after it on each
+        screened candidate's change; up to :data:`JOINT` in all, none nearly parallel to one
+        already taken), the accepted effects held: their labels and the validation error
+        they leave (noise units); None when the proposal has no such partners (a revision,
+        a calibration)."""
+        if is_revision(proposal.effect) or proposal.effect in MULTI or \
+                proposal.effect not in fin:
+            return None
+        tr = self.train
+        rest = self._vec(self._res(fin[proposal.effect]), tr)
+        taken = [s.rvec - rest]
+        group = {proposal.effect: proposal.value}
+        pool = {k: d for k, d in s.deltas.items()
+                if k not in MULTI and not is_revision(k) and k in s.probes
+                and k != proposal.effect and np.all(np.isfinite(d)) and np.any(d)}
+        while len(group) < JOINT and pool:
+            best, best_gain = None, 0.0
+            for k, d in pool.items():
+                dd = float(np.dot(d, d))
+                if any(abs(float(np.dot(d, t))) >= 0.95 * math.sqrt(dd * float(np.dot(t, t)))
+                       for t in taken):
+                    continue
+                g = float(np.dot(rest, d)) ** 2 / dd
+                if g > best_gain:
+                    best, best_gain = k, g
+            if best is None:
+                break
+            d = pool.pop(best)
+            eff = get_effect(best.split(".")[0])
+            off, probe = eff.param.off, s.probes[best]
+            alpha = float(np.dot(rest, d)) / float(np.dot(d, d))
+            if math.isinf(off):
+                continue
+            group[best] = float(np.clip(off + alpha * (probe - off), eff.param.lo,
+                                        eff.param.hi))
+            rest = rest - alpha * d
+            taken.append(d)
+        if len(group) < 2:
+            return None
+        self.progress("joint fit")
+        values, _ = self.fit(group, dict(self.accepted))
+        out = self.predict({**self.accepted, **values})
+        return list(group), self._error(self._res(out), self.val)
+
+
+JOINT = 3
+"""Candidates fitted together to tell a genuine partial explanation (one of several effects
+in the record) from the absorption of a residual the library does not explain."""
+
+
+def _share(e0: float, e1: float) -> float:
+    """The share of the validation error's excess over noise removed, (e0 − e1)/(e0 − 1)."""
+    return (e0 - e1) / (e0 - 1.0) if e0 > 1.0 else 0.0
+
+
+def _explains(cand: Candidate, e0: float) -> bool:
+    """Whether a candidate takes the record most of the way to noise (:data:`DECISIVE` of
+    the excess over noise, the rule for the scene's statements too) or from above the noise
+    level to it (:data:`NOISE_LIKE`). A record at the noise level already needs the former:
+    a candidate that removes a sliver of its small excess is no explanation."""
+    if _share(e0, cand.error_after) >= DECISIVE:
+        return True
+    return e0 > NOISE_LIKE and cand.error_after <= NOISE_LIKE
+
+
+def detection_limit(e0: float) -> float:
+    """The smallest effect (the RMS of its signature on the validation blocks, noise units)
+    that a diagnosis can still propose on a record whose residual it cannot explain, at
+    validation error ``e0``: added to it, the effect must remove :data:`DECISIVE` of the
+    excess over noise, e' ≥ (e0 − D)/(1 − D), so its signature is √(e'² − e0²)."""
+    if not e0 > 1.0:
+        return 0.0
+    need = (e0 - DECISIVE) / (1.0 - DECISIVE)
+    return math.sqrt(max(need * need - e0 * e0, 0.0))
 
 
 def _weigh_statement(cand: Candidate, against: dict[str, tuple[Any, Any]]) -> bool:

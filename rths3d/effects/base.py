@@ -197,8 +197,11 @@ class Effect:
 
     # ------------------------------------------------------------------ fitting help
     def exists_for(self, part: Any) -> bool:
-        """Whether the effect can act on a bench with this part (class or instance)."""
-        return all(getattr(part, flag, False) for flag in self.requires)
+        """Whether the effect can act on a bench with this part (an instance; a class
+        answers for the flags it fixes as class attributes, a flag its instances decide —
+        the user's MJCF part has a surface if its file has world bodies — counts as
+        absent)."""
+        return all(getattr(part, flag, False) is True for flag in self.requires)
 
     def probe_value(self, probe: ProbeData | None = None) -> float:
         """The value used to screen this effect (a typical magnitude); ``probe`` gives the

@@ -342,9 +342,17 @@ class ContactGap(Effect):
 
     def apply_spec(self, spec, value, ctx, leg, axis):
         g = spec.geom("exp_surface")
-        pos = np.array(g.pos)
-        pos[2] += value
-        g.pos = pos
+        if g is not None:
+            pos = np.array(g.pos)
+            pos[2] += value
+            g.pos = pos
+            return
+        # a part of the user's own (an MJCF file): its world-fixed bodies are the surface
+        for name in ctx.world_bodies:
+            body = spec.body(name)
+            pos = np.array(body.pos)
+            pos[2] += value
+            body.pos = pos
 
 
 # ---------------------------------------------------------------------------- geometry

@@ -164,6 +164,11 @@ class MjcfPart(ExperimentalPart):
         part = cls(cfg)
         part._matrix()  # compiles the fragment behind a prescribed mount: MuJoCo's errors
 
+    @property
+    def has_contact(self) -> bool:  # type: ignore[override]
+        """Whether the file has world-fixed bodies (a surface the part may meet)."""
+        return bool(self._frag().world)
+
     def _frag(self) -> _Fragment:
         return load_fragment(self.cfg.file)
 
