@@ -22,7 +22,8 @@ Prints ONE JSON line:
 
 Measured in one run, interleaved, ``--repeats`` times; medians are reported. The machine is
 shared and noisy: ratios measured side by side are the figures to trust.
-Usage: ``python benchmarks/platform_loop.py [--quick] [--substeps N]``.
+Usage: ``python benchmarks/platform_loop.py [--quick] [--substeps N] [--lag servo]
+[--valve-hz F]``.
 """
 
 from __future__ import annotations
@@ -42,6 +43,9 @@ def main() -> None:
     ap.add_argument("--lag", choices=("setpoint", "servo"), default="setpoint",
                     help="where the servo's 3 ms lag sits: a set-point filter before the "
                          "hold (default) or continuous after it (six more actuators)")
+    ap.add_argument("--valve-hz", type=float, default=0.0,
+                    help="a servo-valve after the hold (Hz; 0: none, the default): six "
+                         "spools, six tendons, twelve more actuators")
     args = ap.parse_args()
 
     import mujoco
@@ -53,7 +57,7 @@ def main() -> None:
 
     n = 2000 if args.quick else 5000
     repeats = args.repeats or (5 if args.quick else 9)
-    act = ActuatorConfig(lag=args.lag)
+    act = ActuatorConfig(lag=args.lag, valve_hz=args.valve_hz)
     cfg = PlatformConfig(substeps=args.substeps, actuator=act)
     sim = PlatformSim(cfg)
     m, d = sim.model, sim.data
@@ -187,6 +191,7 @@ def main() -> None:
         "rtf_batch16_aggregate": round(1000.0 / statistics.median(batch_us), 2),
         "substeps": cfg.substeps,
         "lag": args.lag,
+        "valve_hz": args.valve_hz,
         "steps": n,
         "repeats": repeats,
         "quick": bool(args.quick),
