@@ -127,3 +127,28 @@ def test_unknown_screen_integrator_names_the_field(record):
 
     with pytest.raises(ConfigError, match="screen_integrator: 'Euler'"):
         Diagnosis(record, candidates=CANDIDATES, screen_integrator="Euler")
+
+
+def test_detection_limit_and_the_unexplained_summary():
+    """The detection limit: the effect (RMS of its signature, noise units) that, added to a
+    residual at e₀, removes 75 % of the excess over noise when taken out — e′ = 4e₀ − 3,
+    √(e′² − e₀²): 35.6 σ at 10, 5.6 σ at 2.26, 0 at the noise level. The JSON summary of an
+    unexplained round carries the residual's excess, the limit and what was not proposed;
+    a round without a limit writes null, not NaN."""
+    import json
+
+    from rths3d.diagnose.result import RoundResult
+    from rths3d.diagnose.rounds import detection_limit
+
+    assert detection_limit(10.0) == pytest.approx(math.sqrt(37.0 ** 2 - 100.0))
+    assert detection_limit(10.0) == pytest.approx(35.62, abs=0.01)
+    assert detection_limit(2.26) == pytest.approx(5.60, abs=0.01)
+    assert detection_limit(1.0) == 0.0
+    r = RoundResult([], {}, False, None, [], 10.5, 10.0, {}, {}, detection_limit=35.62,
+                    absorbed={"viscous_friction": 0.37})
+    d = json.loads(json.dumps(r.as_dict()))
+    assert r.status == "unexplained"
+    assert d["systematic_sigma"] == pytest.approx(math.sqrt(99.0))
+    assert d["detection_limit"] == 35.62 and d["absorbed"] == {"viscous_friction": 0.37}
+    quiet = RoundResult([], {}, True, None, [], 1.0, 1.0, {}, {})
+    assert json.loads(json.dumps(quiet.as_dict(), allow_nan=False))["detection_limit"] is None
