@@ -116,7 +116,8 @@ class ForeignBench:
     """A servo-valve after the hold (Hz, damping ratio; 0 Hz: none): the servo's set-point is
     the valve's output y, ÿ + 2ζωẏ + ω²y = ω²u of the held command u, advanced exactly over
     each physics step (its transition matrix) and given to the servo as its mean over the
-    step."""
+    step; at the end of an interface step, where the channels are sampled, the servo's
+    set-point is the valve's output at that instant."""
 
     def with_(self, **kw) -> ForeignBench:
         return replace(self, **kw)
@@ -313,7 +314,10 @@ class ForeignBench:
             else:  # a ramp from the previous set-point, one value per physics step
                 for j in range(1, nsub + 1):
                     physics_step(c_prev + (cd - c_prev) * (j - 0.5) / nsub)
+                data.ctrl[:6] = cd
             c_prev = cd
+            if valve is not None:  # the servo's set-point now: the valve's output
+                data.ctrl[:6] = valve["y"]
             mujoco.mj_forward(model, data)
             contacts += data.ncon > 0
             if self.sample == "end":

@@ -211,3 +211,41 @@ def test_port_in_use_is_one_line_exit_2(tmp_path) -> None:
     assert code == 2 and len(lines) == 1, err
     assert "--port" in lines[0] and str(port) in lines[0] and "in use" in lines[0]
     assert p.left() == []
+
+
+def test_ctrl_c_delivered_to_another_thread_stops_within_a_slice(tmp_path) -> None:
+    """The kernel may deliver a process's SIGINT to any of its threads (a library's worker);
+    the main thread's wait for the client then is not interrupted. The server waits in
+    slices of ``WAIT_SLICE`` (0.1 s), so it sees the signal and stops by the user within a
+    slice or two, not at the 5 s timeout: SIGINT sent here to an idle thread of this
+    process while an in-process server waits for its client's next step."""
+    import threading
+
+    from rths3d.network.server import LabServer
+    from rths3d.network.simapp import WAIT_SLICE
+    from rths3d.scene import load_scene
+
+    server = LabServer(load_scene(write_scene(tmp_path, timeout=5.0)), port=0)
+    idle = threading.Event()
+    worker = threading.Thread(target=idle.wait, daemon=True)
+    worker.start()
+    sent: list[float] = []
+
+    def client() -> None:
+        c = RawClient(server.port)
+        c.steps(30)
+        time.sleep(0.3)  # the server is waiting for step 31
+        sent.append(time.monotonic())
+        signal.pthread_kill(worker.ident, signal.SIGINT)
+        c.closed_by_peer(10.0)
+        c.close()
+
+    t = threading.Thread(target=client, daemon=True)
+    t.start()
+    res = server.serve(accept_timeout=10.0)
+    took = time.monotonic() - sent[0]
+    t.join(10.0)
+    idle.set()
+    assert res.status == "stopped" and "stopped by the user" in res.reason, res.reason
+    assert res.steps == 30
+    assert took < 4 * WAIT_SLICE, took

@@ -335,6 +335,7 @@ class LabServer:
 
     def _header(self, conn: socket.socket) -> Header:
         raw = bytearray(simapp.HEADER_BYTES)
+        conn.settimeout(simapp.wait_slice(self.first_timeout))
         simapp.recv_bytes(conn, memoryview(raw), len(raw), self.first_timeout)
         h = Header.unpack(bytes(raw))
         ne = self.lab.n_el

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 import socket
 import struct
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -119,12 +120,12 @@ class Channel:
         self._nbytes = 8 * self.data_size
         self._quick = getattr(socket, "TCP_QUICKACK", None)
         self.timeout = timeout
-        sock.settimeout(timeout)
+        sock.settimeout(wait_slice(timeout))
 
     def set_timeout(self, timeout: float | None) -> None:
         if timeout != self.timeout:
             self.timeout = timeout
-            self.sock.settimeout(timeout)
+            self.sock.settimeout(wait_slice(timeout))
 
     def recv(self) -> np.ndarray:
         """The next message (``recv_buf``); :class:`PeerError` if the peer closes or stays
@@ -135,30 +136,46 @@ class Channel:
     def send(self, data: memoryview | None = None) -> None:
         """Send ``send_buf`` (or ``data``: whole messages, e.g. a preallocated block of
         several)."""
-        try:
-            self.sock.sendall(self._send if data is None else data)
-        except TimeoutError:
-            raise PeerError("timeout", f"the peer took no data for {self.timeout:g} s") \
-                from None
-        except OSError as exc:
-            raise PeerError("closed", f"the peer closed the connection ({exc.strerror or exc})"
-                            ) from None
+        send_bytes(self.sock, self._send if data is None else data, self.timeout)
 
     def close(self) -> None:
         close_socket(self.sock)
 
 
+WAIT_SLICE = 0.1
+"""s: the longest a socket wait blocks before it returns to Python (and waits again, up to
+its timeout). A signal the kernel delivers to another thread of the process (a library's
+worker thread) does not interrupt the main thread's wait; Python acts on it (Ctrl-C: stop
+safely, keep the record) when the wait returns — within this slice, not at the timeout.
+A message that arrives within the slice costs nothing more."""
+
+
+def wait_slice(timeout: float | None) -> float:
+    """The socket timeout for a wait of at most ``timeout`` s (None: for ever) in slices."""
+    return WAIT_SLICE if timeout is None else min(float(timeout), WAIT_SLICE)
+
+
 def recv_bytes(sock: socket.socket, view: memoryview, nbytes: int, timeout: float | None,
                quick: int | None = None) -> None:
-    """Fill ``view[:nbytes]`` from ``sock``; :class:`PeerError` ``closed`` or ``timeout``."""
+    """Fill ``view[:nbytes]`` from ``sock`` (its timeout: :func:`wait_slice`), waiting at
+    most ``timeout`` s (None: for ever) for the peer; :class:`PeerError` ``closed`` or
+    ``timeout``."""
     got = 0
+    t0 = None
     try:
         while got < nbytes:
-            n = sock.recv_into(view[got:nbytes], nbytes - got)
+            try:
+                n = sock.recv_into(view[got:nbytes], nbytes - got)
+            except TimeoutError:
+                t0 = time.monotonic() - (sock.gettimeout() or 0.0) if t0 is None else t0
+                if timeout is None or time.monotonic() - t0 < timeout:
+                    continue
+                raise
             if n == 0:
                 raise PeerError("closed", "the peer closed the connection" + (
                     f" after {got} of {nbytes} bytes of a message" if got else ""))
             got += n
+            t0 = None
             if quick is not None:
                 sock.setsockopt(socket.IPPROTO_TCP, quick, 1)
     except TimeoutError:
@@ -168,6 +185,28 @@ def recv_bytes(sock: socket.socket, view: memoryview, nbytes: int, timeout: floa
         if isinstance(exc, PeerError):
             raise
         raise PeerError("closed", f"the connection failed ({exc.strerror or exc})") from None
+
+
+def send_bytes(sock: socket.socket, data: memoryview, timeout: float | None) -> None:
+    """Send all of ``data`` on ``sock`` (its timeout: :func:`wait_slice`), waiting at most
+    ``timeout`` s (None: for ever) for the peer to take it; :class:`PeerError`."""
+    sent, n = 0, len(data)
+    t0 = None
+    try:
+        while sent < n:
+            try:
+                sent += sock.send(data[sent:] if sent else data)
+                t0 = None
+            except TimeoutError:
+                t0 = time.monotonic() - (sock.gettimeout() or 0.0) if t0 is None else t0
+                if timeout is None or time.monotonic() - t0 < timeout:
+                    continue
+                raise
+    except TimeoutError:
+        raise PeerError("timeout", f"the peer took no data for {timeout:g} s") from None
+    except OSError as exc:
+        raise PeerError("closed", f"the peer closed the connection ({exc.strerror or exc})"
+                        ) from None
 
 
 def close_socket(sock: socket.socket | None) -> None:
