@@ -27,13 +27,22 @@ def has_openseespy() -> bool:
     return True
 
 
+def _as_from_a_terminal() -> None:
+    """In the child before exec: SIGINT to its default, as a command typed in a terminal has
+    it (a pytest-xdist worker ignores SIGINT, and an ignored signal stays ignored across
+    exec: the server under test would never see its Ctrl-C)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 class Proc:
-    """A process in its own session; its stdout read line by line on a thread."""
+    """A process in its own session, SIGINT at its default; its stdout read line by line on
+    a thread."""
 
     def __init__(self, args: list[str], cwd: Path = ROOT):
         self.args = args
         self.p = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                  start_new_session=True, cwd=cwd, env=ENV, text=True)
+                                  start_new_session=True, cwd=cwd, env=ENV, text=True,
+                                  preexec_fn=_as_from_a_terminal)
         self.lines: list[str] = []
         self._t = threading.Thread(target=self._read, daemon=True)
         self._t.start()

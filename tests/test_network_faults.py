@@ -240,9 +240,14 @@ def test_ctrl_c_delivered_to_another_thread_stops_within_a_slice(tmp_path) -> No
         c.closed_by_peer(10.0)
         c.close()
 
+    # Ctrl-C's default action, as in a terminal (a pytest-xdist worker ignores SIGINT)
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
     t = threading.Thread(target=client, daemon=True)
     t.start()
-    res = server.serve(accept_timeout=10.0)
+    try:
+        res = server.serve(accept_timeout=10.0)
+    finally:
+        signal.signal(signal.SIGINT, before)
     took = time.monotonic() - sent[0]
     t.join(10.0)
     idle.set()
