@@ -6,14 +6,20 @@ noise), given only the record file and the scene a user would write from the ben
 - the generator itself agrees with the bench model where both follow today's conventions;
 - payload identification recovers an off-axis payload measured on such a bench;
 - Null: described correctly, only noise (validation ≤ 1.2 noise units, counted in the noise
-  the bench added);
+  the bench added) — benches A, B, D (the servo's lag after the hold), E (a servo-valve) and
+  F (D with a four times stiffer chain and a disc plate: every convention other than the
+  project's);
 - Described wrong (one error each: hold mode, sampling instant, payload mass, centre-of-mass
   height, one anchor; on bench D, whose servo lag sits after the hold: the lag's place not
-  stated, the lag or the delay stated twice what the bench has): the error found first,
-  validation ≤ 1.2 after it;
-- a matrix of per-leg, geometry, FTS and payload effects on such a bench.
+  stated, the lag or the delay stated twice what the bench has; on E the valve's
+  frequency): the error found first, validation ≤ 1.2 after it;
+- a matrix of per-leg, geometry, FTS and payload effects (centre of mass and inertia
+  included) on such a bench.
 
-The full matrix with its figures: ``python examples/66_foreign_bench.py``.
+The benches a scene cannot fully describe (an unstated disc plate, structural damping in the
+frame, with and without a baseline) and a contact gap of the user's MJCF part:
+tests/test_foreign_unmodelled.py. The full matrix with its figures: ``python
+examples/66_foreign_bench.py``.
 """
 
 from __future__ import annotations
