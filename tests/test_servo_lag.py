@@ -22,12 +22,12 @@ def _heave(k: int) -> float:
     return 1e-4 * (min(max(k - 5, 0), 10) - min(max(k - 30, 0), 10))
 
 
-def _servo_setpoints(hold: str, n: int = 60, substeps: int = 1):
-    """Step a platform with the servo lag after the hold; per sample: the set-points c_k the
-    servo was given (m, (n+1, 6)) and the lagged set-point the servo acted on, from the
-    measured leg state: x = s + (F + kv·ṡ)/kp (m, (n+1, 6))."""
-    cfg = PlatformConfig(substeps=substeps, actuator=ActuatorConfig(
-        kp=KP, kv=KV, timeconst=TAU, delay=0.0, lag="servo", hold=hold))
+def stepped_setpoints(actuator: ActuatorConfig, n: int = 60, substeps: int = 1):
+    """Step a platform with ``actuator`` through :func:`_heave`; per sample: the set-points
+    c_k the servo was given (m, (n+1, 6)) and the set-point the servo acted on, from the
+    measured leg state: x = s + (F + kv·ṡ)/kp (m, (n+1, 6)); and the interface step (s)."""
+    cfg = PlatformConfig(substeps=substeps, actuator=actuator)
+    KP, KV = actuator.kp, actuator.kv  # noqa: N806
     sim = PlatformBatch(cfg)
     c, x = [sim._cnew[0].copy()], []
 
@@ -43,6 +43,12 @@ def _servo_setpoints(hold: str, n: int = 60, substeps: int = 1):
         c.append(sim._cnew[0].copy())
         x.append(lagged())
     return np.array(c), np.array(x), cfg.dt
+
+
+def _servo_setpoints(hold: str, n: int = 60, substeps: int = 1):
+    """:func:`stepped_setpoints` with the servo lag after the hold."""
+    return stepped_setpoints(ActuatorConfig(kp=KP, kv=KV, timeconst=TAU, delay=0.0,
+                                            lag="servo", hold=hold), n, substeps)
 
 
 def _closed_form(c: np.ndarray, h: float, hold: str) -> np.ndarray:

@@ -12,42 +12,22 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.linalg
+from test_servo_lag import stepped_setpoints
 
 from rths3d.errors import ConfigError
 from rths3d.platform.model import ActuatorConfig, PlatformConfig, build_model, predicted_delay
-from rths3d.platform.sim import PlatformBatch
 
 KP, KV = 2.0e5, 2.0e3  # N/m, N·s/m
 HZ, ZETA = 60.0, 0.6  # the valve's natural frequency (Hz) and damping ratio (1)
 SCENE = Path(__file__).resolve().parents[1] / "scenes" / "paper_contact.toml"
 
 
-def _heave(k: int) -> float:
-    """A heave command (m): rest, a 0.1 m/s ramp for 10 ms, a hold, a ramp back."""
-    return 1e-4 * (min(max(k - 5, 0), 10) - min(max(k - 30, 0), 10))
-
-
 def _valve_setpoints(hold: str, n: int = 60, substeps: int = 1):
-    """Step a platform with the valve; per sample the set-points c_k given to the servo
-    (m, (n+1, 6)) and the valve output the servo acted on, from the measured leg state:
-    y = s + (F + kv·ṡ)/kp (m, (n+1, 6))."""
-    cfg = PlatformConfig(substeps=substeps, actuator=ActuatorConfig(
-        kp=KP, kv=KV, timeconst=0.0, delay=0.0, hold=hold, valve_hz=HZ, valve_damping=ZETA))
-    sim = PlatformBatch(cfg)
-    c, y = [sim._cnew[0].copy()], []
-
-    def output() -> np.ndarray:
-        return sim.live_legs_q[0] + (sim.meas_legs_f[0] + KV * sim.live_legs_v[0]) / KP
-
-    y.append(output())
-    for k in range(n):
-        p = np.zeros((1, 6))
-        p[0, 2] = _heave(k)
-        sim.step(p)
-        assert not sim.stopped[0]
-        c.append(sim._cnew[0].copy())
-        y.append(output())
-    return np.array(c), np.array(y), cfg.dt
+    """The set-points c_k given to the servo and the valve output y it acted on
+    (:func:`test_servo_lag.stepped_setpoints`: y from the measured leg state)."""
+    return stepped_setpoints(ActuatorConfig(kp=KP, kv=KV, timeconst=0.0, delay=0.0,
+                                            hold=hold, valve_hz=HZ, valve_damping=ZETA),
+                             n, substeps)
 
 
 def _closed_form(c: np.ndarray, h: float, hold: str) -> np.ndarray:

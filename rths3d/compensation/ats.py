@@ -313,6 +313,8 @@ class ATSCompensator(BaseCompensator):
     name = "ats"
     rank = 40
     adaptive = True
+    event_labels = LABELS
+    event_units = UNITS
     Config = ATSConfig
 
     def __init__(self, config: ATSConfig, K: int, n: int, dt: float):
@@ -378,11 +380,6 @@ class ATSCompensator(BaseCompensator):
         self.calls += 1
         return self.u
 
-    def events(self, call: int | None = None, tests: slice = slice(None)) -> None:
-        """The kernel's new safety events of ``tests`` as stops (at call ``call``, default
-        this one): the compiled loop calls this after the step whose kernel call returned
-        True."""
-        self._events(self.code, self.ev_val, self.ev_lim, LABELS, UNITS, call, tests)
 
     def compiled(self):
         return (comp_ready(ats_kernel),), self.params, self.state

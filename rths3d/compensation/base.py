@@ -439,11 +439,21 @@ class BaseCompensator:
         kernel (the compiled loop runs it); None for those stepped from Python."""
         return None
 
+    event_labels: ClassVar[tuple[str, ...]] = ()
+    """What each event code i ≥ 1 of its kernel means (``labels[i-1]``, ``{ch}`` the channel);
+    empty: a compensator whose kernel raises none. With labels, the compensator keeps the
+    kernel's event arrays as ``code``, ``ev_val`` and ``ev_lim`` (K, n)."""
+    event_units: ClassVar[tuple[str, ...]] = ()
+    """The unit of each event's value (same order as :attr:`event_labels`)."""
+
     def events(self, call: int | None = None, tests: slice = slice(None)) -> None:
         """Turn the safety events its kernel raised for ``tests`` (a :data:`COMP_SIG` kernel
-        returned True) into stops at call ``call``; nothing for a compensator without
-        any."""
-        return None
+        returned True) into stops at call ``call`` (default: this one); the compiled loop
+        calls this after the step whose kernel call returned True. Nothing for a
+        compensator without events."""
+        if self.event_labels:
+            self._events(self.code, self.ev_val, self.ev_lim, self.event_labels,
+                         self.event_units, call, tests)
 
     # -- stops -------------------------------------------------------------------------
     def _stop(self, k: int, quantity: str, value: float, limit: float, unit: str = "",

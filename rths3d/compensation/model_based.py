@@ -146,6 +146,8 @@ class ModelBasedCompensator(BaseCompensator):
     rank = 70
     Config = ModelBasedConfig
     adaptive = True
+    event_labels = LABELS
+    event_units = UNITS
 
     def __init__(self, config: ModelBasedConfig, K: int, n: int, dt: float):
         super().__init__(config, K, n, dt)
@@ -184,11 +186,6 @@ class ModelBasedCompensator(BaseCompensator):
         self.calls += 1
         return self.u
 
-    def events(self, call: int | None = None, tests: slice = slice(None)) -> None:
-        """The kernel's new safety events of ``tests`` as stops (at call ``call``, default
-        this one): the compiled loop calls this after the step whose kernel call returned
-        True."""
-        self._events(self.code, self.ev_val, self.ev_lim, LABELS, UNITS, call, tests)
 
     def compiled(self):
         return (model_based_kernel,), self.params, self.state

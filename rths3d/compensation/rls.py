@@ -268,6 +268,8 @@ class RLSCompensator(BaseCompensator):
     name = "rls"
     rank = 60
     adaptive = True
+    event_labels = LABELS
+    event_units = UNITS
     Config = RLSConfig
 
     def __init__(self, config: RLSConfig, K: int, n: int, dt: float):
@@ -327,11 +329,6 @@ class RLSCompensator(BaseCompensator):
         self.calls += 1
         return self.u
 
-    def events(self, call: int | None = None, tests: slice = slice(None)) -> None:
-        """The kernel's new safety events of ``tests`` as stops (at call ``call``, default
-        this one): the compiled loop calls this after the step whose kernel call returned
-        True."""
-        self._events(self.code, self.ev_val, self.ev_lim, LABELS, UNITS, call, tests)
 
     def compiled(self):
         return (comp_ready(rls_kernel),), self.params, self.state

@@ -254,6 +254,8 @@ class RoDeACCompensator(BaseCompensator):
     name = "rodeac"
     rank = 65
     adaptive = True
+    event_labels = LABELS
+    event_units = UNITS
     Config = RoDeACConfig
 
     def __init__(self, config: RoDeACConfig, K: int, n: int, dt: float):
@@ -314,11 +316,6 @@ class RoDeACCompensator(BaseCompensator):
         self.calls += 1
         return self.u
 
-    def events(self, call: int | None = None, tests: slice = slice(None)) -> None:
-        """The kernel's new safety events of ``tests`` as stops (at call ``call``, default
-        this one): the compiled loop calls this after the step whose kernel call returned
-        True."""
-        self._events(self.code, self.ev_val, self.ev_lim, LABELS, UNITS, call, tests)
 
     def compiled(self):
         return (comp_ready(rodeac_kernel),), self.params, self.state

@@ -451,7 +451,7 @@ def _weigh_statement(cand: Candidate, against: dict[str, tuple[Any, Any]]) -> bo
     if not against:
         return True
     e0, e1 = cand.error_before, cand.error_after
-    share = (e0 - e1) / (e0 - 1.0) if e0 > 1.0 else 0.0
+    share = _share(e0, e1)
     what = "; ".join(f"stated {key} = {old!r}, the measurement says {new!r}"
                      for key, (old, new) in against.items())
     cand.evidence = (f"contradicts your description: {what}, by validation error {e0:.3g} → "
