@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_closed_stewart import _same  # compiled and Python records to 1e-12 of each peak
 
 from rths3d.loop import run_batch
 from rths3d.scene import load_scene
@@ -21,18 +22,6 @@ def _both(monkeypatch, go):
     a = go()
     monkeypatch.setattr(ChainTransfer, "compiled", lambda self: None)
     return a, go()
-
-
-def _same(a, b) -> None:
-    assert a.record.meta["loop"] == "compiled" and b.record.meta["loop"] == "python"
-    assert (a.status, a.reason) == (b.status, b.reason)
-    ra, rb = a.record, b.record
-    assert len(ra.t) == len(rb.t)
-    for c in rb.columns:
-        x, y = np.asarray(ra.columns[c]), np.asarray(rb.columns[c])
-        peak = float(np.max(np.abs(y))) if y.size else 0.0
-        err = float(np.max(np.abs(x - y))) if y.size else 0.0
-        assert err <= 1e-12 * peak or err == 0.0, (c, err, peak)
 
 
 def test_ats_on_the_lti_path_compiled_equals_python_with_a_drift_stop(monkeypatch):
